@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# One setup script behind both README commands.
+#   scripts/setup.sh demo   install missing packages, build, run the default mission
+#   scripts/setup.sh test   install missing packages, build with -Werror, format check, all tests
+#   scripts/setup.sh build  install missing packages and build only
+# Environment: BUILD_DIR (default build), JOBS (default nproc), DRACO_SANITIZE=ON for ASan/UBSan.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+mode=${1:-demo}
+shift || true
+BUILD_DIR=${BUILD_DIR:-build}
+JOBS=${JOBS:-$(nproc)}
+
+log() { printf '[setup] %s\n' "$*"; }
+
+install_packages() {
+  local missing=()
+  while read -r pkg; do
+    pkg=${pkg%%#*}; pkg=$(echo "$pkg" | xargs)
+    [ -z "$pkg" ] && continue
+    dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+  done < scripts/debian-packages.txt
+  if [ ${#missing[@]} -eq 0 ]; then
+    log "all Debian packages present"
+    return
+  fi
+  log "installing ${#missing[@]} missing packages: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+configure_and_build() {
+  local werror=$1
+  local generator=()
+  command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
+  if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
+    cmake -S . -B "$BUILD_DIR" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release
+  fi
+  cmake -S . -B "$BUILD_DIR" -DDRACO_WERROR="$werror" -DDRACO_SANITIZE="${DRACO_SANITIZE:-OFF}" >/dev/null
+  log "building in $BUILD_DIR with $JOBS jobs"
+  cmake --build "$BUILD_DIR" -j "$JOBS"
+}
+
+format_check() {
+  log "clang-format check"
+  local bad
+  bad=$(git ls-files '*.cpp' '*.hpp' '*.h' | xargs -r clang-format --dry-run -Werror 2>&1 | grep -c 'error:' || true)
+  if [ "$bad" != "0" ]; then
+    git ls-files '*.cpp' '*.hpp' '*.h' | xargs -r clang-format --dry-run -Werror
+    log "format check failed: run 'git ls-files \"*.cpp\" \"*.hpp\" | xargs clang-format -i'"
+    exit 1
+  fi
+}
+
+case "$mode" in
+  build)
+    install_packages
+    configure_and_build OFF
+    ;;
+  demo)
+    install_packages
+    configure_and_build OFF
+    "$BUILD_DIR/apps/draco-demo" "$@"
+    ;;
+  test)
+    install_packages
+    format_check
+    configure_and_build ON
+    log "running tests"
+    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600 "$@"
+    ;;
+  *)
+    echo "usage: scripts/setup.sh demo|test|build" >&2
+    exit 2
+    ;;
+esac
