@@ -20,9 +20,9 @@ struct SonarPing {
   int num_ranges = 0;
   int num_beams = 0;
   double range_resolution_m = 0.0;
-  std::vector<float> bearings_rad;       // size num_beams, increasing
-  std::vector<std::uint8_t> intensity;   // size num_ranges * num_beams
-  double vertical_aperture_rad = 0.0;    // 0 when unknown
+  std::vector<float> bearings_rad;      // size num_beams, increasing
+  std::vector<std::uint8_t> intensity;  // size num_ranges * num_beams
+  double vertical_aperture_rad = 0.0;   // 0 when unknown
 
   double MaxRangeM() const { return num_ranges * range_resolution_m; }
   std::uint8_t At(int range_bin, int beam) const {

@@ -1,0 +1,72 @@
+// Executors run a validated Graph. Both call the same components through the same
+// contract; they differ in scheduling:
+//  - deterministic: one thread; pending messages merged by (stamp, producer id, sequence);
+//    a virtual clock; as fast as possible or paced at N x real time. Identical inputs give
+//    identical outputs.
+//  - threaded: a thread pool; each component serialized (never runs concurrently with
+//    itself); bounded input queues with their declared drop policy and drop counters.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "draco/graph/graph.hpp"
+
+namespace draco::graph {
+
+struct InputStats {
+  std::string name;
+  std::uint64_t received = 0;
+  std::uint64_t dropped = 0;
+};
+
+struct ComponentStats {
+  std::string id;
+  std::string type;
+  std::uint64_t calls = 0;
+  std::uint64_t errors = 0;
+  double mean_ms = 0.0;
+  double p99_ms = 0.0;
+  double max_ms = 0.0;
+  double total_ms = 0.0;
+  std::vector<InputStats> inputs;
+  std::uint64_t dropped() const;
+};
+
+struct RunStats {
+  std::string executor;
+  double wall_s = 0.0;
+  double mission_s = 0.0;                  // mission time of the last event
+  std::vector<ComponentStats> components;  // graph order (by id)
+  std::string ToTable() const;
+  std::string ToJson() const;
+};
+
+struct RunOptions {
+  double rate = 0.0;  // 0: as fast as possible; N: N x real time (overrides the graph's)
+  bool use_graph_rate = true;
+  int threads = 0;  // 0: the graph's setting
+  std::string output_dir;
+  Time until = Time::Max();                           // stop after this mission time
+  const std::atomic<bool>* stop_requested = nullptr;  // e.g. set by a SIGINT handler
+  bool log_errors = true;
+};
+
+struct RunResult {
+  bool ok = true;
+  bool interrupted = false;
+  std::string error;  // first fatal error, "component_id: message"
+  RunStats stats;
+};
+
+RunResult RunDeterministic(Graph& graph, const RunOptions& options = {});
+RunResult RunThreaded(Graph& graph, const RunOptions& options = {});
+// Runs with the executor the graph names (settings.executor).
+RunResult Run(Graph& graph, const RunOptions& options = {});
+
+// Writes text to path atomically (temporary file + rename).
+bool WriteFileAtomically(const std::string& path, const std::string& text);
+
+}  // namespace draco::graph

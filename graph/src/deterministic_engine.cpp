@@ -1,0 +1,276 @@
+#include "deterministic_engine.hpp"
+
+#include <exception>
+#include <thread>
+
+namespace draco::graph::internal {
+
+DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options)
+    : graph_(graph),
+      options_(options),
+      node_now_(graph.nodes.size()),
+      next_seq_(graph.nodes.size() + 1, 0),
+      source_pending_(graph.nodes.size(), false),
+      recorder_(graph.nodes.size()),
+      output_dir_(options.output_dir) {
+  rate_ = options.use_graph_rate ? graph.settings.rate : options.rate;
+  for (const auto& n : graph_.nodes) {
+    producer_ids_.push_back(std::make_shared<const std::string>(n->id));
+    for (auto& out : n->outputs) {
+      const std::uint32_t producer = n->index;
+      out->set_default_stamp(&node_now_[producer]);
+      out->set_emit(
+          [this, producer](OutputPort& port, Time stamp, std::shared_ptr<const void> payload) {
+            Emit(producer, port, stamp, std::move(payload));
+          });
+    }
+    for (std::size_t t = 0; t < n->timers.size(); ++t) {
+      timers_.push_back(TimerState{n->index, t, n->timers[t].period});
+    }
+  }
+  producer_ids_.push_back(std::make_shared<const std::string>("(injected)"));
+}
+
+DeterministicEngine::~DeterministicEngine() {
+  for (const auto& n : graph_.nodes) {
+    for (auto& out : n->outputs) {
+      out->set_emit(nullptr);
+      out->set_default_stamp(nullptr);
+    }
+  }
+}
+
+const std::vector<Envelope>& DeterministicEngine::Tapped(std::uint32_t node,
+                                                         std::size_t output) const {
+  static const std::vector<Envelope> kEmpty;
+  auto it = taps_.find({node, output});
+  return it == taps_.end() ? kEmpty : it->second;
+}
+
+void DeterministicEngine::Emit(std::uint32_t producer, OutputPort& port, Time stamp,
+                               std::shared_ptr<const void> payload) {
+  Envelope env{stamp, producer, next_seq_[producer]++, std::move(payload), producer_ids_[producer]};
+  if (taps_enabled_) taps_[{producer, port.index()}].push_back(env);
+  bool has_normal = false;
+  bool has_delayed = false;
+  for (const Edge* e : graph_.Subscribers(producer, port.index())) {
+    const bool delayed = graph_.nodes[e->consumer]->inputs[e->input]->options().delayed;
+    (delayed ? has_delayed : has_normal) = true;
+  }
+  for (int phase = 0; phase < 2; ++phase) {
+    if (!(phase == 0 ? has_normal : has_delayed)) continue;
+    Event ev;
+    ev.stamp = stamp;
+    ev.phase = phase;
+    ev.producer = producer;
+    ev.seq = env.seq;
+    ev.order = order_++;
+    ev.kind = Kind::kMessage;
+    ev.output = port.index();
+    ev.envelope = env;
+    queue_.push(std::move(ev));
+  }
+}
+
+void DeterministicEngine::Inject(std::uint32_t node, std::size_t input, Time stamp,
+                                 std::shared_ptr<const void> payload) {
+  const auto injected = static_cast<std::uint32_t>(graph_.nodes.size());
+  Event ev;
+  ev.stamp = stamp;
+  ev.producer = injected;
+  ev.seq = next_seq_[injected]++;
+  ev.order = order_++;
+  ev.kind = Kind::kMessage;
+  ev.envelope = Envelope{stamp, injected, ev.seq, std::move(payload), producer_ids_[injected]};
+  ev.injected = true;
+  ev.target_node = node;
+  ev.target_input = input;
+  queue_.push(std::move(ev));
+}
+
+bool DeterministicEngine::StartAll() {
+  for (const auto& n : graph_.nodes) {
+    Call(n->index, Reason::kStart, "");
+    if (failed()) return false;
+  }
+  for (const auto& n : graph_.nodes) {
+    if (n->is_source) ScheduleSource(n->index);
+  }
+  return !failed();
+}
+
+void DeterministicEngine::ScheduleSource(std::uint32_t node) {
+  if (source_pending_[node]) return;
+  std::optional<Time> next;
+  try {
+    next = graph_.nodes[node]->component->NextSourceTime();
+  } catch (const std::exception& e) {
+    error_ = graph_.nodes[node]->id + ": NextSourceTime threw: " + e.what();
+    return;
+  }
+  if (!next) return;
+  Event ev;
+  ev.stamp = *next;
+  ev.producer = node;
+  ev.seq = next_seq_[node];
+  ev.order = order_++;
+  ev.kind = Kind::kSource;
+  queue_.push(std::move(ev));
+  source_pending_[node] = true;
+}
+
+void DeterministicEngine::Call(std::uint32_t node, Reason reason, const std::string& timer) {
+  Node& n = *graph_.nodes[node];
+  node_now_[node] = now_;
+  Context ctx(n.id, &node_now_[node], &output_dir_);
+  ctx.SetEvent(reason, timer);
+  Status status = Status::Ok();
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    switch (reason) {
+      case Reason::kStart:
+        status = n.component->Start(ctx);
+        break;
+      case Reason::kStop:
+        status = n.component->Stop(ctx);
+        break;
+      default:
+        status = n.component->Process(ctx);
+        break;
+    }
+  } catch (const std::exception& e) {
+    status = Status::Error(std::string("exception: ") + e.what());
+  }
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (reason != Reason::kStart && reason != Reason::kStop) recorder_.Record(node, ms);
+  if (status.code() == Status::Code::kFatal || (!status.ok() && (reason == Reason::kStart))) {
+    if (error_.empty()) error_ = n.id + ": " + status.message();
+  } else if (!status.ok()) {
+    if (recorder_.RecordError(node) && options_.log_errors) ctx.Log("error: " + status.message());
+  }
+}
+
+void DeterministicEngine::Dispatch(Event& ev) {
+  if (ev.kind == Kind::kSource) {
+    source_pending_[ev.producer] = false;
+    Call(ev.producer, Reason::kSource, "");
+    if (!failed()) ScheduleSource(ev.producer);
+    return;
+  }
+  // Deliver to every subscriber first, then run each triggered consumer once, in id order.
+  std::vector<std::uint32_t> triggered;
+  auto deliver = [&](std::uint32_t consumer, std::size_t input) {
+    InputPort& in = *graph_.nodes[consumer]->inputs[input];
+    in.Push(ev.envelope, /*may_block=*/false);
+    if (in.options().trigger &&
+        std::find(triggered.begin(), triggered.end(), consumer) == triggered.end()) {
+      triggered.push_back(consumer);
+    }
+  };
+  if (ev.injected) {
+    deliver(ev.target_node, ev.target_input);
+  } else {
+    for (const Edge* e : graph_.Subscribers(ev.producer, ev.output)) {
+      const bool delayed = graph_.nodes[e->consumer]->inputs[e->input]->options().delayed;
+      if (delayed == (ev.phase == 1)) deliver(e->consumer, e->input);
+    }
+  }
+  std::sort(triggered.begin(), triggered.end());
+  for (std::uint32_t c : triggered) {
+    Call(c, Reason::kInput, "");
+    if (failed()) return;
+  }
+}
+
+void DeterministicEngine::FireTimersUpTo(Time t) {
+  while (!failed()) {
+    TimerState* due = nullptr;
+    for (auto& ts : timers_) {
+      if (ts.next <= t && (due == nullptr || ts.next < due->next)) due = &ts;
+    }
+    if (due == nullptr) return;
+    if (due->next > now_) now_ = due->next;
+    const Time fire = due->next;
+    due->next = due->next + graph_.nodes[due->node]->timers[due->timer].period;
+    Pace(fire);
+    Call(due->node, Reason::kTimer, graph_.nodes[due->node]->timers[due->timer].name);
+  }
+}
+
+void DeterministicEngine::Pace(Time stamp) {
+  if (rate_ <= 0.0) return;
+  if (!paced_started_) {
+    paced_started_ = true;
+    pace_origin_ = stamp;
+    wall_origin_ = std::chrono::steady_clock::now();
+    return;
+  }
+  const double wall_s = (stamp - pace_origin_).Seconds() / rate_;
+  std::this_thread::sleep_until(wall_origin_ + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                                   std::chrono::duration<double>(wall_s)));
+}
+
+bool DeterministicEngine::StopRequested() {
+  if (options_.stop_requested != nullptr && options_.stop_requested->load()) {
+    interrupted_ = true;
+    return true;
+  }
+  return false;
+}
+
+void DeterministicEngine::RunUntil(Time limit) {
+  while (!failed() && !queue_.empty() && !StopRequested()) {
+    if (queue_.top().stamp > limit) break;
+    Event ev = queue_.top();
+    queue_.pop();
+    FireTimersUpTo(ev.stamp);
+    if (failed()) break;
+    if (ev.stamp > now_) now_ = ev.stamp;
+    Pace(ev.stamp);
+    Dispatch(ev);
+  }
+  if (!failed() && !interrupted_ && limit != Time::Max()) FireTimersUpTo(limit);
+}
+
+void DeterministicEngine::StopAll() {
+  for (const auto& n : graph_.nodes) {
+    Call(n->index, Reason::kStop, "");
+    // Deliver what Stop() published (sources stay silent now: they are stopped).
+    while (!queue_.empty()) {
+      Event ev = queue_.top();
+      queue_.pop();
+      if (ev.kind == Kind::kSource) continue;
+      if (ev.stamp > now_) now_ = ev.stamp;
+      Dispatch(ev);
+    }
+  }
+}
+
+}  // namespace draco::graph::internal
+
+namespace draco::graph {
+
+RunResult RunDeterministic(Graph& graph, const RunOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  internal::DeterministicEngine engine(graph, options);
+  RunResult result;
+  if (engine.StartAll()) {
+    engine.RunUntil(options.until);
+  }
+  const std::string start_or_run_error = engine.error();
+  engine.StopAll();
+  result.ok = !engine.failed();
+  result.error = start_or_run_error.empty() ? engine.error() : start_or_run_error;
+  result.interrupted = engine.interrupted();
+  result.stats =
+      engine.Stats(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  return result;
+}
+
+RunResult Run(Graph& graph, const RunOptions& options) {
+  return graph.settings.executor == "threaded" ? RunThreaded(graph, options)
+                                               : RunDeterministic(graph, options);
+}
+
+}  // namespace draco::graph

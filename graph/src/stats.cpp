@@ -1,0 +1,153 @@
+#include <unistd.h>
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include "stats_recorder.hpp"
+
+namespace draco::graph {
+
+std::uint64_t ComponentStats::dropped() const {
+  std::uint64_t n = 0;
+  for (const auto& in : inputs) n += in.dropped;
+  return n;
+}
+
+namespace {
+
+std::string JsonString(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    switch (c) {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
+          out += buf;
+        } else {
+          out += c;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.6g", v);
+  return buf;
+}
+
+}  // namespace
+
+std::string RunStats::ToTable() const {
+  std::ostringstream os;
+  char line[256];
+  std::snprintf(line, sizeof(line), "%-24s %-28s %9s %9s %9s %9s %7s %7s\n", "component", "type",
+                "calls", "mean ms", "p99 ms", "max ms", "errors", "drops");
+  os << line;
+  for (const auto& c : components) {
+    std::snprintf(line, sizeof(line), "%-24s %-28s %9llu %9.3f %9.3f %9.3f %7llu %7llu\n",
+                  c.id.c_str(), c.type.c_str(), static_cast<unsigned long long>(c.calls), c.mean_ms,
+                  c.p99_ms, c.max_ms, static_cast<unsigned long long>(c.errors),
+                  static_cast<unsigned long long>(c.dropped()));
+    os << line;
+  }
+  std::snprintf(line, sizeof(line), "executor %s: %.3f s wall, %.3f s mission time\n",
+                executor.c_str(), wall_s, mission_s);
+  os << line;
+  return os.str();
+}
+
+std::string RunStats::ToJson() const {
+  std::ostringstream os;
+  os << "{\n  \"executor\": " << JsonString(executor) << ",\n  \"wall_s\": " << Num(wall_s)
+     << ",\n  \"mission_s\": " << Num(mission_s) << ",\n  \"components\": [";
+  for (std::size_t i = 0; i < components.size(); ++i) {
+    const auto& c = components[i];
+    os << (i ? "," : "") << "\n    {\"id\": " << JsonString(c.id)
+       << ", \"type\": " << JsonString(c.type) << ", \"calls\": " << c.calls
+       << ", \"errors\": " << c.errors << ", \"mean_ms\": " << Num(c.mean_ms)
+       << ", \"p99_ms\": " << Num(c.p99_ms) << ", \"max_ms\": " << Num(c.max_ms)
+       << ", \"total_ms\": " << Num(c.total_ms) << ", \"inputs\": [";
+    for (std::size_t j = 0; j < c.inputs.size(); ++j) {
+      os << (j ? ", " : "") << "{\"name\": " << JsonString(c.inputs[j].name)
+         << ", \"received\": " << c.inputs[j].received << ", \"dropped\": " << c.inputs[j].dropped
+         << "}";
+    }
+    os << "]}";
+  }
+  os << "\n  ]\n}\n";
+  return os.str();
+}
+
+bool WriteFileAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".partial." + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) return false;
+    f << text;
+    f.flush();
+    if (!f) {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
+namespace internal {
+
+RunStats StatsRecorder::Collect(const Graph& graph, const std::string& executor, double wall_s,
+                                Time mission_end) const {
+  RunStats stats;
+  stats.executor = executor;
+  stats.wall_s = wall_s;
+  stats.mission_s = mission_end.Seconds();
+  for (const auto& n : graph.nodes) {
+    const PerNode& p = per_node_[n->index];
+    ComponentStats c;
+    c.id = n->id;
+    c.type = n->type;
+    c.calls = p.calls;
+    c.errors = p.errors;
+    c.total_ms = p.total_ms;
+    c.max_ms = p.max_ms;
+    c.mean_ms = p.calls > 0 ? p.total_ms / static_cast<double>(p.calls) : 0.0;
+    if (!p.samples.empty()) {
+      std::vector<float> s = p.samples;
+      const std::size_t k = std::min(s.size() - 1, (s.size() * 99) / 100);
+      std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(k), s.end());
+      c.p99_ms = s[k];
+    }
+    for (const auto& in : n->inputs) {
+      c.inputs.push_back(InputStats{in->name(), in->received(), in->dropped()});
+    }
+    stats.components.push_back(std::move(c));
+  }
+  return stats;
+}
+
+}  // namespace internal
+}  // namespace draco::graph
