@@ -103,13 +103,15 @@ using Record = std::variant<msgs::SonarPing, msgs::DvlVelocity, msgs::Ahrs, msgs
 double RecordTime(const Record& record);
 
 enum class ImageCompression : std::uint8_t {
-  kRaw = 0,  // uncompressed rows (fast, large)
-  kPng = 1,  // lossless PNG, 8-bit grey (default)
+  kRaw = 0,   // uncompressed rows (fastest, largest)
+  kPng = 1,   // lossless PNG, 8-bit grey: any image tool opens it
+  kZlib = 2,  // lossless zlib stream of the raw rows (default: 2-3x faster to write than PNG
+              // and a little smaller on speckle, where lossless compression gains only 15-30 %)
 };
 
 struct WriterOptions {
-  ImageCompression compression = ImageCompression::kPng;
-  int png_level = 1;  // zlib level 0-9; 1 is the fastest compressing level
+  ImageCompression compression = ImageCompression::kZlib;
+  int compression_level = 1;  // zlib level 1-9 for kPng and kZlib; 1 is the fastest
 };
 
 // Writes one robot's files. Obtained from MissionWriter::OpenRobot; movable, not copyable.
