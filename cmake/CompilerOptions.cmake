@@ -9,6 +9,8 @@ add_library(draco_options INTERFACE)
 target_compile_options(draco_options INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align
   -Woverloaded-virtual -Wimplicit-fallthrough
+  # Options structs are filled with designated initializers; every member has a default.
+  -Wno-missing-field-initializers
   # GCC 12 reports false -Wrestrict positives inside std::string at -O3 (GCC bug 105651).
   $<$<CXX_COMPILER_ID:GNU>:-Wno-restrict>)
 if(DRACO_WERROR)

@@ -234,9 +234,9 @@ void DeterministicEngine::RunUntil(Time limit) {
 }
 
 void DeterministicEngine::StopAll() {
-  for (const auto& n : graph_.nodes) {
-    Call(n->index, Reason::kStop, "");
-    // Deliver what Stop() published (sources stay silent now: they are stopped).
+  // Messages already in flight are delivered, then components stop producers first, and
+  // what each Stop() publishes is delivered before its consumers stop. Sources stay silent.
+  auto drain = [&] {
     while (!queue_.empty()) {
       Event ev = queue_.top();
       queue_.pop();
@@ -244,6 +244,11 @@ void DeterministicEngine::StopAll() {
       if (ev.stamp > now_) now_ = ev.stamp;
       Dispatch(ev);
     }
+  };
+  drain();
+  for (std::uint32_t node : graph_.TopologicalOrder()) {
+    Call(node, Reason::kStop, "");
+    drain();
   }
 }
 

@@ -83,6 +83,33 @@ Node* Graph::Find(const std::string& id) const {
   return nullptr;
 }
 
+std::vector<std::uint32_t> Graph::TopologicalOrder() const {
+  std::vector<int> indegree(nodes.size(), 0);
+  for (const auto& e : edges) {
+    if (!nodes[e.consumer]->inputs[e.input]->options().delayed) ++indegree[e.consumer];
+  }
+  std::vector<std::uint32_t> order;
+  std::vector<bool> done(nodes.size(), false);
+  while (order.size() < nodes.size()) {
+    // Smallest index (= smallest id) among the ready nodes; a leftover cycle is broken by id.
+    std::uint32_t pick = static_cast<std::uint32_t>(nodes.size());
+    for (std::uint32_t i = 0; i < nodes.size() && pick == nodes.size(); ++i) {
+      if (!done[i] && indegree[i] == 0) pick = i;
+    }
+    for (std::uint32_t i = 0; i < nodes.size() && pick == nodes.size(); ++i) {
+      if (!done[i]) pick = i;
+    }
+    done[pick] = true;
+    order.push_back(pick);
+    for (const auto& e : edges) {
+      if (e.producer == pick && !nodes[e.consumer]->inputs[e.input]->options().delayed) {
+        --indegree[e.consumer];
+      }
+    }
+  }
+  return order;
+}
+
 std::vector<const Edge*> Graph::Subscribers(std::uint32_t producer, std::size_t output) const {
   std::vector<const Edge*> out;
   for (const auto& e : edges) {
@@ -224,7 +251,8 @@ class Loader {
           Error(file, item.Mark(), "expected a file name");
           continue;
         }
-        const auto path = std::filesystem::path(base_dir) / item.as<std::string>();
+        const auto path =
+            (std::filesystem::path(base_dir) / item.as<std::string>()).lexically_normal();
         const std::string canonical = std::filesystem::weakly_canonical(path).string();
         if (std::find(include_stack_.begin(), include_stack_.end(), canonical) !=
             include_stack_.end()) {
@@ -355,7 +383,7 @@ class Loader {
     graph_->nodes.push_back(std::move(node));
   }
 
-  void ReadInput(const Node& node, const YAML::Node& key, const YAML::Node& value,
+  void ReadInput(Node& node, const YAML::Node& key, const YAML::Node& value,
                  const std::string& file) {
     const std::string port = key.as<std::string>();
     if (node.FindInput(port) == nullptr) {
@@ -366,6 +394,8 @@ class Loader {
                 Expected(names, port));
       return;
     }
+    // Reported here if malformed; never again as "not connected".
+    node.FindInput(port)->set_connected(true);
     const std::string text = value.IsScalar() ? value.as<std::string>() : std::string();
     const auto slash = text.find('/');
     if (slash == std::string::npos || slash == 0 || slash + 1 == text.size() ||
@@ -524,8 +554,6 @@ class Loader {
   void ConnectInputs() {
     std::set<std::pair<std::string, std::string>> seen;
     for (const auto& pi : pending_inputs_) {
-      // A binding that fails below is reported there, not again as "not connected".
-      if (Node* n = graph_->Find(pi.consumer)) n->FindInput(pi.port)->set_connected(true);
       const Node* producer = graph_->Find(pi.producer);
       Node* consumer = graph_->Find(pi.consumer);
       if (producer == nullptr) {

@@ -77,8 +77,8 @@ class ThreadedEngine {
       if (clock.joinable()) clock.join();
       WaitIdle();
       const std::string run_error = Error();
-      for (const auto& n : graph_.nodes) {
-        Call(n->index, Reason::kStop, "");
+      for (std::uint32_t node : graph_.TopologicalOrder()) {
+        Call(node, Reason::kStop, "");
         WaitIdle();
       }
       {

@@ -78,6 +78,9 @@ class Graph {
   std::vector<Edge> edges;                   // sorted by (producer, output, consumer, input)
 
   Node* Find(const std::string& id) const;
+  // Node indices with every producer before its consumers (delayed edges ignored; ties by
+  // id). Stop() is called in this order so what a component flushes reaches its consumers.
+  std::vector<std::uint32_t> TopologicalOrder() const;
   // Edges leaving one output, in consumer order.
   std::vector<const Edge*> Subscribers(std::uint32_t producer, std::size_t output) const;
 };
