@@ -1,0 +1,282 @@
+// BagReader on bags written by the official ROS 1 writer (write_test_bags.py, run once per
+// test process into its own folder). The known values are recomputed here the way the
+// script computes them.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "draco/rosbag/bag_reader.hpp"
+
+namespace draco::rosbag {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kBagStart = 1600000000.0;
+constexpr double kReceiptDelay = 0.005;
+constexpr int kNumRanges = 48;
+constexpr int kNumBeams = 32;
+constexpr double kRangeResolution = 0.05;
+constexpr double kGamma = 127;
+
+int Pattern(int ping, int r, int c) { return (40 * (r / 8) + 25 * (c / 8) + 30 * ping) % 256; }
+double BearingHundredths(int c) { return std::round(-6500 + c * 13000.0 / (kNumBeams - 1)); }
+
+fs::path g_bag_dir;
+
+// Writes the bags once per test process (CTest runs each test in its own process, possibly
+// in parallel), into a folder of its own, removed afterwards.
+class BagReaderTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    g_bag_dir = fs::path(DRACO_ROSBAG_WORK_DIR) / ("bags-" + std::to_string(::getpid()));
+    fs::remove_all(g_bag_dir);
+    std::string command =
+        std::string(DRACO_ROSBAG_PYTHON) + " " + DRACO_ROSBAG_WRITER + " " + g_bag_dir.string();
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  }
+  static void TearDownTestSuite() { fs::remove_all(g_bag_dir); }
+};
+
+std::string Bag(const std::string& name) { return (g_bag_dir / name).string(); }
+
+std::vector<Record> ReadAll(const std::string& path, Options options = {}) {
+  BagReader reader = BagReader::Open(path, std::move(options));
+  std::vector<Record> out;
+  while (auto r = reader.Next()) out.push_back(std::move(*r));
+  return out;
+}
+
+template <class T>
+std::vector<T> Only(const std::vector<Record>& records) {
+  std::vector<T> out;
+  for (const auto& r : records) {
+    if (const T* m = std::get_if<T>(&r.message)) out.push_back(*m);
+  }
+  return out;
+}
+
+// Expects BagError whose message contains every one of `parts`.
+template <class Fn>
+void ExpectBagError(Fn fn, const std::vector<std::string>& parts) {
+  try {
+    fn();
+    ADD_FAILURE() << "no BagError";
+  } catch (const BagError& e) {
+    for (const auto& part : parts) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
+          << "'" << part << "' not in: " << e.what();
+    }
+  }
+}
+
+void CheckFullBag(const std::vector<Record>& records) {
+  ASSERT_EQ(records.size(), 3u + 3u + 10u + 5u + 5u);  // the unrelated topic is not read
+  for (std::size_t i = 1; i < records.size(); ++i) {
+    EXPECT_LE(records[i - 1].receipt_time_s, records[i].receipt_time_s);
+  }
+  auto pings = Only<msgs::SonarPing>(records);
+  auto dvl = Only<msgs::DvlVelocity>(records);
+  auto ahrs = Only<msgs::Ahrs>(records);
+  auto depth = Only<msgs::Depth>(records);
+  auto poses = Only<msgs::GroundTruthPose>(records);
+  ASSERT_EQ(pings.size(), 3u);
+  ASSERT_EQ(dvl.size(), 3u);
+  ASSERT_EQ(ahrs.size(), 10u);
+  ASSERT_EQ(depth.size(), 5u);
+  ASSERT_EQ(poses.size(), 5u);
+
+  // Mission time = header stamp - bag start (the first receipt time).
+  for (int k = 0; k < 3; ++k) {
+    const auto& p = pings[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(p.time_s, 0.2 * k - kReceiptDelay, 1e-6);
+    EXPECT_EQ(p.ping_id, 100u + static_cast<unsigned>(k));
+    EXPECT_EQ(p.num_ranges, kNumRanges);
+    EXPECT_EQ(p.num_beams, kNumBeams);
+    EXPECT_DOUBLE_EQ(p.range_resolution_m, kRangeResolution);
+    ASSERT_EQ(p.bearings_rad.size(), static_cast<std::size_t>(kNumBeams));
+    ASSERT_EQ(p.intensity.size(), static_cast<std::size_t>(kNumRanges * kNumBeams));
+    for (int c = 0; c < kNumBeams; ++c) {
+      // Starboard-positive bearings become counter-clockwise: negated, columns reversed.
+      double expected = -BearingHundredths(kNumBeams - 1 - c) * 0.01 * M_PI / 180.0;
+      EXPECT_NEAR(p.bearings_rad[static_cast<std::size_t>(c)], expected, 1e-6);
+    }
+    int worst = 0;
+    for (int r = 0; r < kNumRanges; ++r) {
+      for (int c = 0; c < kNumBeams; ++c) {
+        double raw = Pattern(k, r, kNumBeams - 1 - c);
+        int expected = static_cast<int>(std::lround(std::pow(raw / 255.0, 255.0 / kGamma) * 255));
+        worst = std::max(worst, std::abs(p.At(r, c) - expected));
+      }
+    }
+    EXPECT_LE(worst, 3) << "ping " << k;  // JPEG of uniform 8x8 blocks is near-exact
+  }
+  for (int k = 0; k < 3; ++k) {
+    const auto& d = dvl[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(d.time_s, 0.2 * k + 0.001 - kReceiptDelay, 1e-6);
+    EXPECT_EQ(d.velocity_body_mps, (std::array<double, 3>{0.5, 0.1, -0.02}));
+    EXPECT_NEAR(d.altitude_m, 3.0 + 0.1 * k, 1e-12);
+    EXPECT_TRUE(d.valid);
+  }
+  for (int k = 0; k < 10; ++k) {
+    const auto& a = ahrs[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(a.time_s, 0.05 * k + 0.002 - kReceiptDelay, 1e-6);
+    EXPECT_NEAR(a.roll_rad, 0.1, 1e-9);
+    EXPECT_NEAR(a.pitch_rad, 0.2, 1e-9);
+    EXPECT_NEAR(a.yaw_rad, -(1.0 + 0.1 * k), 1e-9);
+    EXPECT_NEAR(a.yaw_rate_radps, -0.05, 1e-12);
+  }
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(depth[static_cast<std::size_t>(k)].depth_m, 2.0 + 0.25 * k);
+    const auto& g = poses[static_cast<std::size_t>(k)];
+    EXPECT_NEAR(g.time_s, 0.1 * k + 0.004 - kReceiptDelay, 1e-6);
+    EXPECT_EQ(g.position_m, (std::array<double, 3>{1.0 * k, -2.0 * k, 3.0}));
+    EXPECT_NEAR(g.yaw_rad, -0.3, 1e-9);
+  }
+}
+
+TEST_F(BagReaderTest, ReadsEveryStreamWithKnownValues) {
+  BagReader reader = BagReader::Open(Bag("full.bag"));
+  EXPECT_EQ(reader.sonar_topic(), "/sonar_oculus_node/M750d/ping");
+  EXPECT_NEAR(reader.start_time_s(), kBagStart + kReceiptDelay, 1e-6);
+  EXPECT_EQ(reader.selected_message_count(), 26u);
+  CheckFullBag(ReadAll(Bag("full.bag")));
+}
+
+TEST_F(BagReaderTest, Lz4AndBz2ChunksGiveTheSameMessages) {
+  CheckFullBag(ReadAll(Bag("lz4.bag")));
+  CheckFullBag(ReadAll(Bag("bz2.bag")));
+}
+
+TEST_F(BagReaderTest, ListsTopicsWithTheWritersMd5) {
+  auto topics = BagReader::Open(Bag("full.bag")).Topics();
+  std::map<std::string, TopicInfo> by_topic;
+  for (const auto& t : topics) by_topic[t.topic] = t;
+  ASSERT_EQ(by_topic.count("/sonar_oculus_node/M750d/ping"), 1u);
+  EXPECT_EQ(by_topic["/sonar_oculus_node/M750d/ping"].datatype, "sonar_oculus/OculusPing");
+  EXPECT_EQ(by_topic["/sonar_oculus_node/M750d/ping"].md5sum, "9f6ad8a7bb36e92c4f0225b11da7ca2e");
+  EXPECT_EQ(by_topic["/vn100/imu/raw"].message_count, 10u);
+  EXPECT_EQ(by_topic["/rosout_like"].datatype, "std_msgs/String");
+}
+
+TEST_F(BagReaderTest, OptionsChangeTimesFramesAndGamma) {
+  Options options;
+  options.use_header_stamp = false;
+  options.convert.frd_to_flu = false;
+  options.convert.linearize_gamma = false;
+  auto records = ReadAll(Bag("full.bag"), options);
+  auto pings = Only<msgs::SonarPing>(records);
+  ASSERT_EQ(pings.size(), 3u);
+  EXPECT_NEAR(pings[1].time_s, 0.2, 1e-6);  // receipt time - bag start
+  EXPECT_NEAR(pings[1].bearings_rad[0], -65.0 * M_PI / 180.0, 1e-6);
+  int worst = 0;
+  for (int r = 0; r < kNumRanges; ++r) {
+    for (int c = 0; c < kNumBeams; ++c) {
+      worst = std::max(worst, std::abs(pings[1].At(r, c) - Pattern(1, r, c)));
+    }
+  }
+  EXPECT_LE(worst, 2);
+  auto ahrs = Only<msgs::Ahrs>(records);
+  EXPECT_NEAR(ahrs[3].yaw_rad, 1.3, 1e-9);
+  EXPECT_NEAR(ahrs[3].pitch_rad, -0.2, 1e-9);
+  auto poses = Only<msgs::GroundTruthPose>(records);
+  EXPECT_EQ(poses[2].position_m, (std::array<double, 3>{2.0, 4.0, -3.0}));
+}
+
+TEST_F(BagReaderTest, TopicNamesAreConfigurable) {
+  Options options;
+  options.sonar_topics = {"/no/such/topic"};
+  options.imu_topic = "";
+  options.ground_truth_topic = "/elsewhere";
+  auto records = ReadAll(Bag("full.bag"), options);
+  EXPECT_TRUE(Only<msgs::SonarPing>(records).empty());
+  EXPECT_TRUE(Only<msgs::Ahrs>(records).empty());
+  EXPECT_TRUE(Only<msgs::GroundTruthPose>(records).empty());
+  EXPECT_EQ(Only<msgs::DvlVelocity>(records).size(), 3u);
+}
+
+TEST_F(BagReaderTest, UncompressedPingsOnTheFallbackTopic) {
+  BagReader reader = BagReader::Open(Bag("uncompressed_ping.bag"));
+  EXPECT_EQ(reader.sonar_topic(), "/sonar_oculus_node/ping");
+  Options options;
+  options.convert.frd_to_flu = false;
+  options.convert.linearize_gamma = false;
+  auto pings = Only<msgs::SonarPing>(ReadAll(Bag("uncompressed_ping.bag"), options));
+  ASSERT_EQ(pings.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    for (int r = 0; r < kNumRanges; ++r) {
+      for (int c = 0; c < kNumBeams; ++c) {
+        ASSERT_EQ(pings[static_cast<std::size_t>(k)].At(r, c), Pattern(k, r, c));
+      }
+    }
+  }
+}
+
+TEST_F(BagReaderTest, OlderPingLayoutWithoutPartNumber) {
+  auto pings = Only<msgs::SonarPing>(ReadAll(Bag("old_layout.bag")));
+  ASSERT_EQ(pings.size(), 2u);
+  EXPECT_EQ(pings[1].ping_id, 101u);
+  EXPECT_EQ(pings[1].num_beams, kNumBeams);
+  EXPECT_DOUBLE_EQ(pings[1].range_resolution_m, kRangeResolution);
+  EXPECT_NEAR(pings[1].time_s, 0.2 - kReceiptDelay, 1e-6);
+}
+
+TEST_F(BagReaderTest, TruncatedMessageNamesFileTopicIndexAndField) {
+  const std::string path = Bag("truncated_message.bag");
+  BagReader reader = BagReader::Open(path);
+  ASSERT_TRUE(reader.Next().has_value());
+  ExpectBagError([&] { reader.Next(); }, {path, "/sonar_oculus_node/M750d/ping", "message 1",
+                                          "field 'bearings'", "32 elements"});
+  EXPECT_FALSE(reader.Next().has_value());  // positioned after the bad message
+}
+
+TEST_F(BagReaderTest, UndecodableJpegNamesTheField) {
+  const std::string path = Bag("bad_jpeg.bag");
+  BagReader reader = BagReader::Open(path);
+  ExpectBagError([&] { reader.Next(); }, {path, "message 0", "ping.data"});
+}
+
+TEST_F(BagReaderTest, BearingTableNotMatchingTheImage) {
+  const std::string path = Bag("bad_geometry.bag");
+  BagReader reader = BagReader::Open(path);
+  ExpectBagError([&] { reader.Next(); }, {path, "bearings", "10 entries", "32 beams"});
+}
+
+TEST_F(BagReaderTest, MissingTruncatedAndCorruptFiles) {
+  ExpectBagError([] { BagReader::Open(Bag("nope.bag")); }, {"nope.bag", "cannot open"});
+  ExpectBagError([] { BagReader::Open(Bag("not_a_bag.bag")); }, {"not_a_bag.bag"});
+  ExpectBagError([] { ReadAll(Bag("truncated_file.bag")); }, {"truncated_file.bag"});
+}
+
+// Every cut of a valid bag is either read or refused with a BagError; nothing crashes.
+TEST_F(BagReaderTest, EveryTruncationIsAnErrorNeverACrash) {
+  for (const std::string name : {"full.bag", "lz4.bag"}) {
+    std::ifstream in(Bag(name), std::ios::binary);
+    std::string whole((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string cut_path = Bag("cut.bag");
+    for (std::size_t n = 0; n < whole.size(); n += 97) {
+      {
+        std::ofstream out(cut_path, std::ios::binary | std::ios::trunc);
+        out.write(whole.data(), static_cast<std::streamsize>(n));
+      }
+      try {
+        ReadAll(cut_path);
+      } catch (const BagError& e) {
+        EXPECT_NE(std::string(e.what()).find("cut.bag"), std::string::npos) << e.what();
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace draco::rosbag
