@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # One setup script behind both README commands.
-#   scripts/setup.sh demo   install missing packages, build, run the default mission
+#   scripts/setup.sh demo   install missing packages, build, run the default graph
+#                           (extra arguments go to `draco run`, e.g. --out DIR)
 #   scripts/setup.sh test   install missing packages, build with -Werror, format check, all tests
 #   scripts/setup.sh build  install missing packages and build only
 # Environment: BUILD_DIR (default build), JOBS (default nproc), DRACO_SANITIZE=ON for ASan/UBSan.
@@ -64,7 +65,7 @@ case "$mode" in
   demo)
     install_packages
     configure_and_build OFF
-    "$BUILD_DIR/apps/draco-demo" "$@"
+    "$BUILD_DIR/apps/draco/draco" run "$@"
     ;;
   test)
     install_packages
