@@ -1,13 +1,6 @@
-// BagReader on bags written by the official ROS 1 writer (write_test_bags.py, run once per
-// test process into its own folder). The known values are recomputed here the way the
-// script computes them.
-#include <unistd.h>
-
+// BagReader on bags written by the official ROS 1 writer (test_bags.hpp).
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <map>
 #include <string>
@@ -16,39 +9,14 @@
 #include <gtest/gtest.h>
 
 #include "draco/rosbag/bag_reader.hpp"
+#include "test_bags.hpp"
 
 namespace draco::rosbag {
 namespace {
 
-namespace fs = std::filesystem;
+using namespace testbags;  // NOLINT: the known values
 
-constexpr double kBagStart = 1600000000.0;
-constexpr double kReceiptDelay = 0.005;
-constexpr int kNumRanges = 48;
-constexpr int kNumBeams = 32;
-constexpr double kRangeResolution = 0.05;
-constexpr double kGamma = 127;
-
-int Pattern(int ping, int r, int c) { return (40 * (r / 8) + 25 * (c / 8) + 30 * ping) % 256; }
-double BearingHundredths(int c) { return std::round(-6500 + c * 13000.0 / (kNumBeams - 1)); }
-
-fs::path g_bag_dir;
-
-// Writes the bags once per test process (CTest runs each test in its own process, possibly
-// in parallel), into a folder of its own, removed afterwards.
-class BagReaderTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    g_bag_dir = fs::path(DRACO_ROSBAG_WORK_DIR) / ("bags-" + std::to_string(::getpid()));
-    fs::remove_all(g_bag_dir);
-    std::string command =
-        std::string(DRACO_ROSBAG_PYTHON) + " " + DRACO_ROSBAG_WRITER + " " + g_bag_dir.string();
-    ASSERT_EQ(std::system(command.c_str()), 0) << command;
-  }
-  static void TearDownTestSuite() { fs::remove_all(g_bag_dir); }
-};
-
-std::string Bag(const std::string& name) { return (g_bag_dir / name).string(); }
+std::string Bag(const std::string& name) { return Path(name); }
 
 std::vector<Record> ReadAll(const std::string& path, Options options = {}) {
   BagReader reader = BagReader::Open(path, std::move(options));
@@ -145,7 +113,7 @@ void CheckFullBag(const std::vector<Record>& records) {
   }
 }
 
-TEST_F(BagReaderTest, ReadsEveryStreamWithKnownValues) {
+TEST(BagReader, ReadsEveryStreamWithKnownValues) {
   BagReader reader = BagReader::Open(Bag("full.bag"));
   EXPECT_EQ(reader.sonar_topic(), "/sonar_oculus_node/M750d/ping");
   EXPECT_NEAR(reader.start_time_s(), kBagStart + kReceiptDelay, 1e-6);
@@ -153,12 +121,12 @@ TEST_F(BagReaderTest, ReadsEveryStreamWithKnownValues) {
   CheckFullBag(ReadAll(Bag("full.bag")));
 }
 
-TEST_F(BagReaderTest, Lz4AndBz2ChunksGiveTheSameMessages) {
+TEST(BagReader, Lz4AndBz2ChunksGiveTheSameMessages) {
   CheckFullBag(ReadAll(Bag("lz4.bag")));
   CheckFullBag(ReadAll(Bag("bz2.bag")));
 }
 
-TEST_F(BagReaderTest, ListsTopicsWithTheWritersMd5) {
+TEST(BagReader, ListsTopicsWithTheWritersMd5) {
   auto topics = BagReader::Open(Bag("full.bag")).Topics();
   std::map<std::string, TopicInfo> by_topic;
   for (const auto& t : topics) by_topic[t.topic] = t;
@@ -169,7 +137,7 @@ TEST_F(BagReaderTest, ListsTopicsWithTheWritersMd5) {
   EXPECT_EQ(by_topic["/rosout_like"].datatype, "std_msgs/String");
 }
 
-TEST_F(BagReaderTest, OptionsChangeTimesFramesAndGamma) {
+TEST(BagReader, OptionsChangeTimesFramesAndGamma) {
   Options options;
   options.use_header_stamp = false;
   options.convert.frd_to_flu = false;
@@ -193,7 +161,7 @@ TEST_F(BagReaderTest, OptionsChangeTimesFramesAndGamma) {
   EXPECT_EQ(poses[2].position_m, (std::array<double, 3>{2.0, 4.0, -3.0}));
 }
 
-TEST_F(BagReaderTest, TopicNamesAreConfigurable) {
+TEST(BagReader, TopicNamesAreConfigurable) {
   Options options;
   options.sonar_topics = {"/no/such/topic"};
   options.imu_topic = "";
@@ -205,7 +173,7 @@ TEST_F(BagReaderTest, TopicNamesAreConfigurable) {
   EXPECT_EQ(Only<msgs::DvlVelocity>(records).size(), 3u);
 }
 
-TEST_F(BagReaderTest, UncompressedPingsOnTheFallbackTopic) {
+TEST(BagReader, UncompressedPingsOnTheFallbackTopic) {
   BagReader reader = BagReader::Open(Bag("uncompressed_ping.bag"));
   EXPECT_EQ(reader.sonar_topic(), "/sonar_oculus_node/ping");
   Options options;
@@ -222,7 +190,7 @@ TEST_F(BagReaderTest, UncompressedPingsOnTheFallbackTopic) {
   }
 }
 
-TEST_F(BagReaderTest, OlderPingLayoutWithoutPartNumber) {
+TEST(BagReader, OlderPingLayoutWithoutPartNumber) {
   auto pings = Only<msgs::SonarPing>(ReadAll(Bag("old_layout.bag")));
   ASSERT_EQ(pings.size(), 2u);
   EXPECT_EQ(pings[1].ping_id, 101u);
@@ -231,7 +199,7 @@ TEST_F(BagReaderTest, OlderPingLayoutWithoutPartNumber) {
   EXPECT_NEAR(pings[1].time_s, 0.2 - kReceiptDelay, 1e-6);
 }
 
-TEST_F(BagReaderTest, TruncatedMessageNamesFileTopicIndexAndField) {
+TEST(BagReader, TruncatedMessageNamesFileTopicIndexAndField) {
   const std::string path = Bag("truncated_message.bag");
   BagReader reader = BagReader::Open(path);
   ASSERT_TRUE(reader.Next().has_value());
@@ -240,26 +208,26 @@ TEST_F(BagReaderTest, TruncatedMessageNamesFileTopicIndexAndField) {
   EXPECT_FALSE(reader.Next().has_value());  // positioned after the bad message
 }
 
-TEST_F(BagReaderTest, UndecodableJpegNamesTheField) {
+TEST(BagReader, UndecodableJpegNamesTheField) {
   const std::string path = Bag("bad_jpeg.bag");
   BagReader reader = BagReader::Open(path);
   ExpectBagError([&] { reader.Next(); }, {path, "message 0", "ping.data"});
 }
 
-TEST_F(BagReaderTest, BearingTableNotMatchingTheImage) {
+TEST(BagReader, BearingTableNotMatchingTheImage) {
   const std::string path = Bag("bad_geometry.bag");
   BagReader reader = BagReader::Open(path);
   ExpectBagError([&] { reader.Next(); }, {path, "bearings", "10 entries", "32 beams"});
 }
 
-TEST_F(BagReaderTest, MissingTruncatedAndCorruptFiles) {
+TEST(BagReader, MissingTruncatedAndCorruptFiles) {
   ExpectBagError([] { BagReader::Open(Bag("nope.bag")); }, {"nope.bag", "cannot open"});
   ExpectBagError([] { BagReader::Open(Bag("not_a_bag.bag")); }, {"not_a_bag.bag"});
   ExpectBagError([] { ReadAll(Bag("truncated_file.bag")); }, {"truncated_file.bag"});
 }
 
 // Every cut of a valid bag is either read or refused with a BagError; nothing crashes.
-TEST_F(BagReaderTest, EveryTruncationIsAnErrorNeverACrash) {
+TEST(BagReader, EveryTruncationIsAnErrorNeverACrash) {
   for (const std::string name : {"full.bag", "lz4.bag"}) {
     std::ifstream in(Bag(name), std::ios::binary);
     std::string whole((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

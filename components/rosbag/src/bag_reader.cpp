@@ -50,6 +50,7 @@ std::vector<std::string> RequiredFields(Role role) {
 }
 
 double Seconds(const ros::Time& t) { return t.toSec(); }
+std::int64_t Nanoseconds(const ros::Time& t) { return static_cast<std::int64_t>(t.toNSec()); }
 
 }  // namespace
 
@@ -64,6 +65,7 @@ struct BagReader::Impl {
   // Parsed definitions by connection id (each connection carries its own definition).
   std::map<std::uint32_t, std::shared_ptr<const MessageDefinition>> definitions;
   std::vector<std::uint8_t> buffer;
+  std::int64_t start_ns = 0;  // mission times are differences of integer nanoseconds
   double start_s = 0.0;
   double end_s = 0.0;
   std::string sonar_topic;
@@ -102,6 +104,7 @@ BagReader BagReader::Open(const std::string& path, Options options) {
     std::map<std::string, bool> present;
     for (const auto* c : all.getConnections()) present[c->topic] = true;
     if (all.size() > 0) {
+      impl->start_ns = Nanoseconds(all.getBeginTime());
       impl->start_s = Seconds(all.getBeginTime());
       impl->end_s = Seconds(all.getEndTime());
     }
@@ -167,6 +170,7 @@ std::optional<Record> BagReader::Next() {
   if (!s.view || s.it == s.view->end()) return std::nullopt;
 
   Record record;
+  std::int64_t receipt_ns = 0;
   std::shared_ptr<const MessageDefinition> def;
   Role role = Role::kSonar;
   try {
@@ -174,6 +178,7 @@ std::optional<Record> BagReader::Next() {
     record.topic = m.getTopic();
     record.index = s.next_index[record.topic]++;
     record.receipt_time_s = Seconds(m.getTime());
+    receipt_ns = Nanoseconds(m.getTime());
     role = s.roles.at(record.topic);
     // The definition by connection: the datatype, md5 and text identify it.
     const std::string key_topic = record.topic;
@@ -196,14 +201,19 @@ std::optional<Record> BagReader::Next() {
               " (" + e.what() + "); the file is truncated or corrupt";
     throw BagError(s.fatal);
   }
-  if (!def) throw BagError(s.Where(record.topic, record.index) + ": unknown connection");
+  if (!def) throw BagError(s.Where(record.topic, record.index) + ": unknown connection", true);
 
   try {
     RosValue value = def->Decode(s.buffer.data(), s.buffer.size());
-    auto stamp = value.TimeSeconds("header.stamp");
+    const RosValue* stamp = value.Find("header.stamp");
+    const RosTime* stamp_time = stamp ? stamp->AsTime() : nullptr;
+    std::int64_t ns = receipt_ns;
     record.stamp_time_s = record.receipt_time_s;
-    if (s.options.use_header_stamp && stamp && *stamp > 0.0) record.stamp_time_s = *stamp;
-    const double t = record.stamp_time_s - s.start_s;
+    if (s.options.use_header_stamp && stamp_time && (stamp_time->sec > 0 || stamp_time->nsec > 0)) {
+      ns = stamp_time->sec * 1000000000 + stamp_time->nsec;
+      record.stamp_time_s = stamp_time->Seconds();
+    }
+    const double t = static_cast<double>(ns - s.start_ns) * 1e-9;
     const ConvertOptions& c = s.options.convert;
     switch (role) {
       case Role::kSonar:
@@ -223,8 +233,8 @@ std::optional<Record> BagReader::Next() {
         break;
     }
   } catch (const DecodeError& e) {
-    throw BagError(s.Where(record.topic, record.index) + " (" + def->root_type() +
-                   "): " + e.what());
+    throw BagError(s.Where(record.topic, record.index) + " (" + def->root_type() + "): " + e.what(),
+                   /*bad_message=*/true);
   }
   return record;
 }

@@ -25,7 +25,14 @@ namespace draco::rosbag {
 
 class BagError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  // bad_message: one message could not be decoded or converted; the reader is positioned
+  // after it and can go on. Otherwise the file itself is unusable.
+  explicit BagError(const std::string& what, bool bad_message = false)
+      : std::runtime_error(what), bad_message_(bad_message) {}
+  bool bad_message() const { return bad_message_; }
+
+ private:
+  bool bad_message_ = false;
 };
 
 struct Options {
