@@ -1,0 +1,185 @@
+// DBSCAN: incremental == batch, stable ids, and the object mapper following moved keyframes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "draco/objects/dbscan.hpp"
+#include "draco/objects/geometry.hpp"
+#include "draco/objects/object_mapper.hpp"
+
+namespace draco::objects {
+namespace {
+
+using Partition = std::set<std::set<std::size_t>>;
+
+Partition ToPartition(const std::vector<int>& labels, std::size_t n) {
+  std::map<int, std::set<std::size_t>> by_label;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (labels[i] != kNoise) by_label[labels[i]].insert(i);
+  }
+  Partition out;
+  for (auto& [label, members] : by_label) out.insert(members);
+  return out;
+}
+
+// Blobs and sticks of points plus uniform clutter, in a shuffled order.
+std::vector<Point2> RandomWorld(std::mt19937_64* rng, int blobs, int points_per_blob, int clutter,
+                                double size_m) {
+  std::uniform_real_distribution<double> u(0.0, size_m);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<Point2> points;
+  for (int b = 0; b < blobs; ++b) {
+    const double cx = u(*rng), cy = u(*rng), sx = 0.3 + 2.0 * u(*rng) / size_m,
+                 sy = 0.3 + 0.5 * u(*rng) / size_m;
+    for (int i = 0; i < points_per_blob; ++i)
+      points.push_back({cx + sx * g(*rng), cy + sy * g(*rng)});
+  }
+  for (int i = 0; i < clutter; ++i) points.push_back({u(*rng), u(*rng)});
+  std::shuffle(points.begin(), points.end(), *rng);
+  return points;
+}
+
+TEST(Dbscan, BatchFindsTwoBlobsAndNoise) {
+  std::vector<Point2> points;
+  for (int i = 0; i < 30; ++i) points.push_back({0.05 * i, 0.0});
+  for (int i = 0; i < 30; ++i) points.push_back({20.0 + 0.05 * i, 0.0});
+  points.push_back({10.0, 10.0});
+  const auto labels = DbscanBatch(points, {});
+  EXPECT_EQ(labels[0], 0);
+  EXPECT_EQ(labels[29], 0);
+  EXPECT_EQ(labels[30], 1);
+  EXPECT_EQ(labels[60], kNoise);
+}
+
+TEST(Dbscan, IncrementalEqualsBatchOnRandomSequences) {
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    std::mt19937_64 rng(seed);
+    const DbscanOptions options{.eps_m = 1.5, .min_points = 5 + int(seed % 4) * 5};
+    const auto world = RandomWorld(&rng, 12, 60, 400, 60.0);
+    IncrementalDbscan dbscan(options);
+    std::uniform_int_distribution<int> chunk(1, 120);
+    std::vector<Point2> so_far;
+    std::vector<int> previous;
+    for (std::size_t next = 0; next < world.size();) {
+      const std::size_t end = std::min(world.size(), next + chunk(rng));
+      std::vector<Point2> batch(world.begin() + next, world.begin() + end);
+      so_far.insert(so_far.end(), batch.begin(), batch.end());
+      dbscan.Add(batch);
+      next = end;
+      const std::vector<int> labels = dbscan.Labels();
+      ASSERT_EQ(ToPartition(labels, so_far.size()),
+                ToPartition(DbscanBatch(so_far, options), so_far.size()))
+          << "seed " << seed << " after " << so_far.size() << " points";
+      // Id stability: a core point keeps the oldest id among the clusters merged into its
+      // cluster; ids never change otherwise.
+      std::map<int, int> oldest;  // new id -> min previous id of its old core points
+      for (std::size_t i = 0; i < previous.size(); ++i) {
+        if (previous[i] == kNoise || !dbscan.IsCore(i)) continue;
+        auto [it, inserted] = oldest.emplace(labels[i], previous[i]);
+        if (!inserted) it->second = std::min(it->second, previous[i]);
+      }
+      for (std::size_t i = 0; i < previous.size(); ++i) {
+        if (previous[i] != kNoise && dbscan.IsCore(i)) {
+          ASSERT_EQ(labels[i], oldest[labels[i]]) << "seed " << seed;
+        }
+      }
+      previous = labels;
+    }
+  }
+}
+
+TEST(Dbscan, MergeKeepsOldestId) {
+  const DbscanOptions options{.eps_m = 1.0, .min_points = 3};
+  IncrementalDbscan dbscan(options);
+  std::vector<Point2> left, right, bridge;
+  for (int i = 0; i < 10; ++i) left.push_back({0.5 * i, 0.0});         // x in [0, 4.5]
+  for (int i = 0; i < 10; ++i) right.push_back({8.0 + 0.5 * i, 0.0});  // x in [8, 12.5]
+  for (int i = 0; i < 6; ++i) bridge.push_back({5.0 + 0.5 * i, 0.0});  // fills the gap
+  dbscan.Add(right);
+  dbscan.Add(left);
+  EXPECT_EQ(dbscan.Label(0), 0);   // right: first cluster
+  EXPECT_EQ(dbscan.Label(10), 1);  // left
+  dbscan.Add(bridge);
+  for (std::size_t i = 0; i < dbscan.size(); ++i) EXPECT_EQ(dbscan.Label(i), 0);
+}
+
+TEST(ObjectMapper, ObjectsFiltersAndKeyframes) {
+  ObjectMapper mapper;  // eps 1.5, min points 20, d_min 3 m
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-0.5, 0.5);
+  std::vector<Point2> wall, post;
+  for (int i = 0; i < 80; ++i) wall.push_back({10.0 + 8.0 * (u(rng) + 0.5), 0.4 * u(rng)});
+  for (int i = 0; i < 40; ++i) post.push_back({0.8 * u(rng), 20.0 + 0.8 * u(rng)});  // < 3 m
+  mapper.AddKeyframe(0, {}, wall);
+  mapper.AddKeyframe(1, {0.0, 0.0, 0.0}, post);
+  // The same wall seen from a second keyframe, 5 m ahead and turned by 90 deg.
+  std::vector<Point2> wall_kf2;
+  const Pose2 T{5.0, 0.0, M_PI / 2};
+  for (const auto& p : wall) {
+    const double x = p.x_m - T.x_m, y = p.y_m - T.y_m;
+    wall_kf2.push_back({y, -x});  // inverse of a 90 deg rotation
+  }
+  mapper.AddKeyframe(2, T, wall_kf2);
+  const auto map = mapper.Objects(3, 1.0);
+  ASSERT_EQ(map.objects.size(), 1u);
+  const auto& wall_object = map.objects[0];
+  EXPECT_EQ(wall_object.num_points, 160);
+  EXPECT_EQ(wall_object.keyframes, (std::vector<int>{0, 2}));
+  EXPECT_NEAR(wall_object.center.x_m, 14.0, 0.5);
+  EXPECT_NEAR(wall_object.length_m, 8.0, 0.3);
+  EXPECT_LT(wall_object.breadth_m, 0.41);
+  EXPECT_EQ(map.robot_id, 3);
+}
+
+TEST(ObjectMapper, FollowsMovedKeyframesLikeAFreshRun) {
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> g(0.0, 0.3);
+  const ObjectMapperOptions options;
+  ObjectMapper mapper(options);
+  // A row of piles seen by 30 keyframes along a line; odometry drifts in yaw.
+  std::vector<Pose2> truth, drifted;
+  std::vector<std::vector<Point2>> scans;
+  for (int k = 0; k < 30; ++k) {
+    truth.push_back({2.0 * k, 0.0, 0.0});
+    drifted.push_back({2.0 * k, 0.02 * k * k, 0.004 * k});
+    std::vector<Point2> scan;  // points of piles at x = 0, 10, 20, ..., y = 8, in kf frame
+    for (int pile = 0; pile < 7; ++pile) {
+      const double px = 12.0 * pile - truth.back().x_m;
+      if (std::abs(px) > 15.0) continue;
+      for (int i = 0; i < 8; ++i) scan.push_back({px + 3.0 * g(rng), 8.0 + g(rng)});
+    }
+    scans.push_back(scan);
+    mapper.AddKeyframe(k, drifted.back(), scan);
+  }
+  const auto before = mapper.Objects();
+  std::vector<KeyframePose> corrected;
+  for (int k = 0; k < 30; ++k) corrected.push_back({k, truth[k]});
+  EXPECT_TRUE(mapper.UpdatePoses(corrected));
+  EXPECT_FALSE(mapper.UpdatePoses(corrected));  // nothing moved
+  EXPECT_EQ(mapper.num_reclusters(), 1);
+  // Same partition as clustering the corrected map from scratch.
+  std::vector<Point2> placed;
+  for (int k = 0; k < 30; ++k) {
+    for (const auto& p : scans[k]) placed.push_back(Transform(truth[k], p));
+  }
+  EXPECT_EQ(ToPartition(mapper.clusters().Labels(), placed.size()),
+            ToPartition(DbscanBatch(placed, options.dbscan), placed.size()));
+  const auto after = mapper.Objects();
+  ASSERT_GE(after.objects.size(), 5u);
+  for (const auto& object : after.objects) EXPECT_NEAR(object.center.y_m, 8.0, 0.5);
+  // Ids carried over: every object of the corrected map whose points were an object before
+  // keeps that id.
+  std::set<std::uint32_t> ids_before;
+  for (const auto& o : before.objects) ids_before.insert(o.id);
+  int kept = 0;
+  for (const auto& o : after.objects) kept += ids_before.count(o.id) ? 1 : 0;
+  EXPECT_GE(kept, static_cast<int>(after.objects.size()) - 1);
+}
+
+}  // namespace
+}  // namespace draco::objects
