@@ -1,0 +1,124 @@
+// nav.DeadReckoning and slam.KeyframeSelector: runtime adapters of dead_reckoning.hpp and
+// keyframes.hpp.
+#include <string>
+#include <vector>
+
+#include "draco/graph/component.hpp"
+#include "draco/msgs/sensors.hpp"
+#include "draco/msgs/slam.hpp"
+#include "draco/navigation/dead_reckoning.hpp"
+#include "draco/navigation/keyframes.hpp"
+
+namespace draco::navigation {
+namespace {
+
+using graph::Context;
+using graph::Spec;
+using graph::Status;
+
+class DeadReckoningComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc("DVL + AHRS (+ depth) dead reckoning: one pose and increment per DVL sample.");
+    dvl_ = spec.Input<msgs::DvlVelocity>("dvl", {.depth = 256, .doc = "body velocity"});
+    ahrs_ = spec.Input<msgs::Ahrs>("ahrs", {.trigger = false,
+                                            .depth = 4096,
+                                            .doc = "heading; readings up to each DVL "
+                                                   "sample are applied before it"});
+    depth_ = spec.Input<msgs::Depth>("depth", {.trigger = false,
+                                               .delivery = graph::Delivery::kLatest,
+                                               .required = false,
+                                               .doc = "latest depth"});
+    out_ = spec.Output<msgs::DeadReckoning>("odometry", "pose in the odom frame per DVL sample");
+    spec.Param("yaw_relative_to_first", &o_.yaw_relative_to_first,
+               {"odom yaw 0 = the first AHRS reading", "", {}, {}, {}});
+    spec.Param(
+        "max_speed_mps", &o_.max_speed_mps,
+        {"faster DVL samples are spikes (the last good velocity is held)", "m/s", 0.0, {}, {}});
+    spec.Param("hold_time_s", &o_.hold_time_s,
+               {"hold the last good velocity this long in a dropout", "s", 0.0, {}, {}});
+    spec.Param("decay_time_s", &o_.decay_time_s,
+               {"then decay it with this time constant", "s", 1e-6, {}, {}});
+    spec.Param("velocity_sigma_mps", &o_.velocity_sigma_mps,
+               {"per-axis sigma of a good DVL velocity", "m/s", 0.0, {}, {}});
+    spec.Param("held_sigma_growth_mps_per_s", &o_.held_sigma_growth_mps_per_s,
+               {"sigma added per second without a good DVL sample", "m/s^2", 0.0, {}, {}});
+    spec.Param("max_gap_s", &o_.max_gap_s,
+               {"DVL samples further apart count as a dropout", "s", 0.0, {}, {}});
+    spec.Param("yaw_random_walk_rad_per_sqrt_s", &o_.yaw_random_walk_rad_per_sqrt_s,
+               {"relative heading uncertainty growth", "rad/sqrt(s)", 0.0, {}, {}});
+  }
+  Status Start(Context&) override {
+    dr_ = DeadReckoner(o_);
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    if (auto d = depth_.Take()) dr_.AddDepth(**d);
+    while (auto v = dvl_.Take()) {
+      while (auto a = ahrs_.Peek()) {
+        if (a->stamp > v->stamp) break;
+        dr_.AddAhrs(**a);
+        ahrs_.Take();
+      }
+      if (auto out = dr_.AddDvl(**v)) out_.PublishAt(v->stamp, std::move(*out));
+    }
+    return Status::Ok();
+  }
+
+ private:
+  DeadReckoningOptions o_;
+  DeadReckoner dr_;
+  graph::In<msgs::DvlVelocity> dvl_;
+  graph::In<msgs::Ahrs> ahrs_;
+  graph::In<msgs::Depth> depth_;
+  graph::Out<msgs::DeadReckoning> out_;
+};
+DRACO_REGISTER_COMPONENT(DeadReckoningComponent, "nav.DeadReckoning")
+
+class KeyframeSelectorComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Pairs sonar features with dead reckoning at the ping time and emits keyframes "
+        "(min interval, and min translation or rotation).");
+    features_ = spec.Input<msgs::SonarFeatures>("features", {.depth = 64, .doc = "CFAR points"});
+    odometry_ =
+        spec.Input<msgs::DeadReckoning>("odometry", {.depth = 1024, .doc = "dead reckoning"});
+    keyframe_ = spec.Output<msgs::Keyframe>("keyframe", "stamped with the ping time");
+    spec.Param("min_interval_s", &o_.min_interval_s,
+               {"minimum time between keyframes", "s", 0.0, {}, {}});
+    spec.Param("min_translation_m", &o_.min_translation_m,
+               {"translation that makes a keyframe", "m", 0.0, {}, {}});
+    spec.Param("min_rotation_rad", &o_.min_rotation_rad,
+               {"rotation that makes a keyframe", "rad", 0.0, 3.2, {}});
+    spec.Param("T_body_sensor", &T_body_sensor_,
+               {"sonar mounting [x_m, y_m, yaw_rad]", "", {}, {}, {}});
+  }
+  Status Start(Context&) override {
+    if (T_body_sensor_.size() != 3) return Status::Fatal("T_body_sensor needs 3 values");
+    selector_ =
+        KeyframeSelector(o_, msgs::Pose2{T_body_sensor_[0], T_body_sensor_[1], T_body_sensor_[2]});
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    for (const auto& m : odometry_.TakeAll()) selector_.AddDeadReckoning(*m);
+    for (const auto& m : features_.TakeAll()) selector_.AddFeatures(*m);
+    for (auto& kf : selector_.Poll()) {
+      const graph::Time stamp = graph::Time::FromSeconds(kf.time_s);
+      keyframe_.PublishAt(stamp, std::move(kf));
+    }
+    return Status::Ok();
+  }
+
+ private:
+  KeyframeOptions o_;
+  std::vector<double> T_body_sensor_{0.0, 0.0, 0.0};
+  KeyframeSelector selector_;
+  graph::In<msgs::SonarFeatures> features_;
+  graph::In<msgs::DeadReckoning> odometry_;
+  graph::Out<msgs::Keyframe> keyframe_;
+};
+DRACO_REGISTER_COMPONENT(KeyframeSelectorComponent, "slam.KeyframeSelector")
+
+}  // namespace
+}  // namespace draco::navigation
