@@ -1,0 +1,71 @@
+// Incremental consistency filter for inter-robot loop closures: PCM (per teammate, in that
+// teammate's frame) or GCM (all teammates together in the own map frame), each a maximum
+// clique of the pairwise-consistency graph that must reach a minimum size.
+//
+// Incremental mode (default): each new candidate is tested against the candidates already
+// held (and the other new ones), and the maximum clique is updated by searching only for
+// cliques that contain a new candidate and beat the current one, which gives the batch
+// answer without re-solving. A tie keeps the current clique. Pair results are cached: pose
+// estimates are those of the step in which the later loop arrived.
+// Reference mode: as DRACo's code, the maximum clique over a queue of candidates is solved
+// every step, accepted loops are never withdrawn, and the queue is cut to its last
+// `reference_queue_keep` entries after each success.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "draco/consistency/max_clique.hpp"
+#include "draco/consistency/pairwise.hpp"
+#include "draco/msgs/loops.hpp"
+
+namespace draco::consistency {
+
+enum class Method { kPcm, kGcm };
+enum class QueueMode { kIncremental, kReference };
+const char* MethodName(Method method);
+
+struct FilterOptions {
+  Method method = Method::kGcm;
+  PairwiseOptions pairwise;      // covariance model and chi-square threshold
+  int min_clique_size = 5;       // the reference's minimum
+  double time_budget_ms = 50.0;  // per Add(); <= 0: none
+  QueueMode queue = QueueMode::kIncremental;
+  int reference_queue_keep = 5;
+};
+
+// Loop ids (msgs::InterRobotLoop::id), ascending.
+struct Decision {
+  std::vector<std::uint64_t> accepted;        // the current consistent set
+  std::vector<std::uint64_t> newly_accepted;  // accepted now, not after the previous step
+  std::vector<std::uint64_t> rejected;        // every candidate held and not accepted
+  std::vector<std::uint64_t> retracted;       // accepted after the previous step, not now
+  bool exact = true;  // false: a clique search ran out of time and a heuristic answered
+  std::int64_t pair_tests = 0;
+  std::int64_t clique_nodes = 0;
+};
+
+class ConsistencyFilter {
+ public:
+  explicit ConsistencyFilter(const FilterOptions& options = {});
+  // Adds candidates (all of one own robot) and decides. `poses` is read during the call.
+  Decision Add(const std::vector<msgs::InterRobotLoop>& loops, const PoseSource& poses);
+  const FilterOptions& options() const { return options_; }
+  int NumCandidates() const { return static_cast<int>(loops_.size()); }
+
+ private:
+  struct Group {
+    std::vector<int> members;  // indices into loops_, local index = position
+    Graph graph;
+    std::vector<int> clique;  // local indices, the current maximum clique
+    std::vector<int> queue;   // reference mode: local indices still queued
+  };
+
+  FilterOptions options_;
+  std::vector<msgs::InterRobotLoop> loops_;
+  std::vector<bool> accepted_;
+  std::map<int, Group> groups_;  // teammate (PCM) or -1 (GCM)
+};
+
+}  // namespace draco::consistency

@@ -1,0 +1,88 @@
+// Pairwise consistency of two inter-robot loop closures (PCM, Mangelson et al. 2018) and its
+// group-wise form across teammates (GCM, DRACo-SLAM2 section III-E).
+//
+// Loops z1 = T_{a_i}^{b_k} (teammate b's keyframe k in own keyframe i) and z2 = T_{a_j}^{c_l}.
+// The cycle a_i -> b_k -> c_l -> a_j -> a_i must be the identity:
+//   e = inv(z1) * x_{a_i a_j} * z2 * x_{c_l b_k}
+// with x_{a_i a_j} the own relative pose (own pose graph). For one teammate (b = c, PCM and
+// the same-teammate pairs of GCM) x_{c_l b_k} = inv(x_{b_k b_l}) from the teammate's graph.
+// For two teammates (GCM, the paper's eq. for x^{beta_i}_{gamma_j}) the teammate poses are
+// expressed in the own map frame a_0 through the map-to-map transforms:
+//   x_{c_l b_k} = inv(x_{c_0 c_l}) * inv(T_{a_0 c_0}) * T_{a_0 b_0} * x_{b_0 b_k}.
+// The loops are consistent when the squared Mahalanobis distance of e is below the
+// chi-square threshold (11.34: 3 dof at 0.99).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "draco/consistency/se2.hpp"
+#include "draco/msgs/loops.hpp"
+
+namespace draco::consistency {
+
+// Which covariance the distance uses.
+enum class CovarianceModel {
+  kFirstLoop,   // the reference: the first loop's covariance only
+  kPropagated,  // both loops' covariances, the relative poses' marginals and (GCM across
+                // teammates) the map-to-map transforms', propagated to first order
+};
+const char* CovarianceModelName(CovarianceModel model);
+
+// Pose estimates the test needs; implemented by the caller over its pose graphs.
+class PoseSource {
+ public:
+  virtual ~PoseSource() = default;
+  // T_{r_from}^{r_to}: keyframe `to` of robot r in keyframe `from`'s frame, with the marginal
+  // covariance of that relative pose. nullopt when unknown.
+  virtual std::optional<UncertainPose> Relative(int robot, int from_keyframe,
+                                                int to_keyframe) const = 0;
+  // T_{own_0}^{teammate_0}: the teammate's map frame in the own map frame (graph matching
+  // or accepted loops), with covariance. nullopt when not known yet.
+  virtual std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const = 0;
+};
+
+// A simple PoseSource: each robot's keyframes as an open odometry chain (poses in its map
+// frame plus per-step covariances); relative marginals are exact for a chain (first order).
+class ChainPoseSource : public PoseSource {
+ public:
+  // Appends the next keyframe of `robot` (its pose in the robot's map frame) and the
+  // covariance of the step from the previous keyframe (ignored for the first keyframe).
+  void AddKeyframe(int robot, const Pose2& T_map_kf, const Eigen::Matrix3d& step_covariance);
+  void SetMapTransform(int own_robot, int teammate, const UncertainPose& T_own_teammate);
+  int NumKeyframes(int robot) const;
+  const Pose2& KeyframePose(int robot, int keyframe) const;
+
+  std::optional<UncertainPose> Relative(int robot, int from_keyframe,
+                                        int to_keyframe) const override;
+  std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const override;
+
+ private:
+  struct Chain {
+    std::vector<Pose2> poses;                 // T_map_kf
+    std::vector<Eigen::Matrix3d> cumulative;  // covariance of T_kf0_kf
+  };
+  std::map<int, Chain> chains_;
+  std::map<std::pair<int, int>, UncertainPose> map_transforms_;
+};
+
+struct PairwiseResult {
+  bool evaluated = false;  // false when a pose or transform was missing
+  bool consistent = false;
+  double mahalanobis_squared = 0.0;
+  Eigen::Vector3d error = Eigen::Vector3d::Zero();
+};
+
+struct PairwiseOptions {
+  CovarianceModel covariance = CovarianceModel::kPropagated;
+  double chi2_threshold = 11.34;
+};
+
+// The cycle error of two loops of the same own robot. Loops with different teammates need
+// both map transforms (GCM); with the same teammate they are not used.
+PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
+                        const PoseSource& poses, const PairwiseOptions& options);
+
+}  // namespace draco::consistency

@@ -1,0 +1,128 @@
+#include "draco/consistency/filter.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+namespace draco::consistency {
+
+const char* MethodName(Method method) { return method == Method::kPcm ? "PCM" : "GCM"; }
+
+ConsistencyFilter::ConsistencyFilter(const FilterOptions& options) : options_(options) {}
+
+Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
+                                const PoseSource& poses) {
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto remaining_ms = [&]() {
+    if (options_.time_budget_ms <= 0.0) return 0.0;
+    const double used = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    return std::max(1e-6, options_.time_budget_ms - used);
+  };
+  Decision decision;
+  const bool reference = options_.queue == QueueMode::kReference;
+
+  // 1. Place the new candidates in their groups and test them against the held ones.
+  std::map<int, int> first_new;  // group -> first new local index
+  for (const msgs::InterRobotLoop& loop : loops) {
+    if (!loops_.empty() && loop.own_robot != loops_.front().own_robot) {
+      throw std::invalid_argument("ConsistencyFilter: loops of different own robots");
+    }
+    const int key = options_.method == Method::kPcm ? loop.teammate_robot : -1;
+    Group& group = groups_[key];
+    const int index = static_cast<int>(loops_.size());
+    loops_.push_back(loop);
+    accepted_.push_back(false);
+    const int local = group.graph.AddVertex();
+    group.members.push_back(index);
+    first_new.emplace(key, local);
+    std::vector<int> against;  // local indices
+    if (reference) {
+      against = group.queue;
+    } else {
+      for (int u = 0; u < local; ++u) against.push_back(u);
+    }
+    for (const int u : against) {
+      ++decision.pair_tests;
+      const PairwiseResult r =
+          TestPair(loops_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(u)])],
+                   loop, poses, options_.pairwise);
+      if (r.consistent) group.graph.AddEdge(u, local);
+    }
+    if (reference) group.queue.push_back(local);
+  }
+
+  // 2. Update each touched group's clique.
+  const std::vector<bool> before = accepted_;
+  for (const auto& [key, first] : first_new) {
+    Group& group = groups_[key];
+    const int n = group.graph.NumVertices();
+    if (reference) {
+      CliqueOptions co{remaining_ms(), 0};
+      const CliqueResult r = MaximumCliqueWithin(group.graph, {}, group.queue, co);
+      decision.exact = decision.exact && r.exact;
+      decision.clique_nodes += r.nodes;
+      if (static_cast<int>(r.vertices.size()) >= options_.min_clique_size) {
+        for (const int v : r.vertices) {
+          accepted_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(v)])] = true;
+        }
+        const int keep =
+            std::min(options_.reference_queue_keep, static_cast<int>(group.queue.size()));
+        group.queue.erase(group.queue.begin(), group.queue.end() - keep);
+      }
+      continue;
+    }
+    const int current = static_cast<int>(group.clique.size());
+    if (n - first >= first) {
+      // Mostly new: one search over the whole group, for a clique beating the current one.
+      CliqueOptions co{remaining_ms(), current};
+      const CliqueResult r = MaximumClique(group.graph, co);
+      decision.exact = decision.exact && r.exact;
+      decision.clique_nodes += r.nodes;
+      if (!r.vertices.empty()) group.clique = r.vertices;
+    } else {
+      // A better clique holds a new vertex; with v its first new member, the others are
+      // neighbours of v among the old vertices and the new ones after v.
+      for (int v = first; v < n; ++v) {
+        std::vector<int> candidates;
+        for (int u = 0; u < n; ++u) {
+          if ((u < first || u > v) && group.graph.HasEdge(u, v)) candidates.push_back(u);
+        }
+        if (static_cast<int>(candidates.size()) + 1 <= static_cast<int>(group.clique.size())) {
+          continue;
+        }
+        CliqueOptions co{remaining_ms(), static_cast<int>(group.clique.size())};
+        const CliqueResult r = MaximumCliqueWithin(group.graph, {v}, candidates, co);
+        decision.exact = decision.exact && r.exact;
+        decision.clique_nodes += r.nodes;
+        if (!r.vertices.empty()) group.clique = r.vertices;
+      }
+    }
+    // Incremental acceptance is the current clique (when large enough), per group.
+    for (const int m : group.members) accepted_[static_cast<std::size_t>(m)] = false;
+    if (static_cast<int>(group.clique.size()) >= options_.min_clique_size) {
+      for (const int v : group.clique) {
+        accepted_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(v)])] = true;
+      }
+    }
+  }
+
+  for (std::size_t i = 0; i < loops_.size(); ++i) {
+    const std::uint64_t id = loops_[i].id;
+    const bool was = i < before.size() && before[i];
+    if (accepted_[i]) {
+      decision.accepted.push_back(id);
+    } else {
+      decision.rejected.push_back(id);
+    }
+    if (accepted_[i] && !was) decision.newly_accepted.push_back(id);
+    if (!accepted_[i] && was) decision.retracted.push_back(id);
+  }
+  for (auto* v :
+       {&decision.accepted, &decision.newly_accepted, &decision.rejected, &decision.retracted}) {
+    std::sort(v->begin(), v->end());
+  }
+  return decision;
+}
+
+}  // namespace draco::consistency

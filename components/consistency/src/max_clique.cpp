@@ -1,0 +1,291 @@
+#include "draco/consistency/max_clique.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <numeric>
+
+namespace draco::consistency {
+namespace {
+
+using Bits = std::vector<std::uint64_t>;
+using Clock = std::chrono::steady_clock;
+
+bool Any(const Bits& b) {
+  return std::any_of(b.begin(), b.end(), [](std::uint64_t w) { return w != 0; });
+}
+void Set(Bits& b, int i) { b[static_cast<std::size_t>(i >> 6)] |= 1ull << (i & 63); }
+void Clear(Bits& b, int i) { b[static_cast<std::size_t>(i >> 6)] &= ~(1ull << (i & 63)); }
+bool Test(const Bits& b, int i) {
+  return ((b[static_cast<std::size_t>(i >> 6)] >> (i & 63)) & 1u) != 0;
+}
+int Lowest(const Bits& b) {
+  for (std::size_t w = 0; w < b.size(); ++w) {
+    if (b[w] != 0) return static_cast<int>(w * 64) + std::countr_zero(b[w]);
+  }
+  return -1;
+}
+int Count(const Bits& b) {
+  int c = 0;
+  for (const std::uint64_t w : b) c += std::popcount(w);
+  return c;
+}
+
+// Branch and bound on a compact local graph (vertices renumbered by decreasing degree so the
+// greedy colouring gives tight bounds).
+class Solver {
+ public:
+  Solver(std::vector<Bits> adjacency, int best_size, Clock::time_point deadline, bool budgeted)
+      : adj_(std::move(adjacency)),
+        words_(adj_.empty() ? 0 : static_cast<int>(adj_.front().size())),
+        best_size_(best_size),
+        deadline_(deadline),
+        budgeted_(budgeted) {}
+
+  void Run() {
+    Bits all(static_cast<std::size_t>(words_), 0);
+    for (int v = 0; v < static_cast<int>(adj_.size()); ++v) Set(all, v);
+    if (Any(all)) Expand(all);
+  }
+  const std::vector<int>& best() const { return best_; }
+  bool aborted() const { return aborted_; }
+  std::int64_t nodes() const { return nodes_; }
+
+ private:
+  void Expand(Bits p) {
+    ++nodes_;
+    if (budgeted_ && (nodes_ & 255) == 0 && Clock::now() > deadline_) aborted_ = true;
+    if (aborted_) return;
+    // Greedy sequential colouring of P: vertices in colour order with their colour.
+    std::vector<int> order;
+    std::vector<int> colour;
+    Bits q = p;
+    int k = 0;
+    while (Any(q)) {
+      ++k;
+      Bits u = q;
+      for (int v = Lowest(u); v >= 0; v = Lowest(u)) {
+        Clear(u, v);
+        Clear(q, v);
+        for (int w = 0; w < words_; ++w) u[static_cast<std::size_t>(w)] &= ~adj_[v][w];
+        order.push_back(v);
+        colour.push_back(k);
+      }
+    }
+    for (int i = static_cast<int>(order.size()) - 1; i >= 0; --i) {
+      const int size = static_cast<int>(current_.size());
+      if (size + colour[static_cast<std::size_t>(i)] <= best_size_) return;
+      const int v = order[static_cast<std::size_t>(i)];
+      current_.push_back(v);
+      Bits next(static_cast<std::size_t>(words_));
+      for (int w = 0; w < words_; ++w) {
+        next[static_cast<std::size_t>(w)] = p[static_cast<std::size_t>(w)] & adj_[v][w];
+      }
+      if (!Any(next)) {
+        if (size + 1 > best_size_) {
+          best_size_ = size + 1;
+          best_ = current_;
+        }
+      } else {
+        Expand(std::move(next));
+      }
+      current_.pop_back();
+      Clear(p, v);
+      if (aborted_) return;
+    }
+  }
+
+  std::vector<Bits> adj_;
+  int words_;
+  int best_size_;
+  Clock::time_point deadline_;
+  bool budgeted_;
+  std::vector<int> current_;
+  std::vector<int> best_;
+  bool aborted_ = false;
+  std::int64_t nodes_ = 0;
+};
+
+}  // namespace
+
+Graph::Graph(int num_vertices) {
+  for (int i = 0; i < num_vertices; ++i) AddVertex();
+}
+
+int Graph::AddVertex() {
+  const int v = n_++;
+  if (n_ > words_ * 64) {
+    ++words_;
+    for (auto& row : rows_) row.push_back(0);
+  }
+  rows_.emplace_back(static_cast<std::size_t>(words_), 0);
+  return v;
+}
+
+void Graph::AddEdge(int u, int v) {
+  if (u == v) return;
+  Set(rows_[static_cast<std::size_t>(u)], v);
+  Set(rows_[static_cast<std::size_t>(v)], u);
+}
+
+bool Graph::HasEdge(int u, int v) const { return Test(rows_[static_cast<std::size_t>(u)], v); }
+
+int Graph::Degree(int v) const { return Count(rows_[static_cast<std::size_t>(v)]); }
+
+std::vector<int> GreedyClique(const Graph& graph, const std::vector<int>& candidates) {
+  const std::size_t words = static_cast<std::size_t>(graph.NumWords());
+  Bits cand(words, 0);
+  for (const int v : candidates) Set(cand, v);
+  auto degree_in = [&](int v, const Bits& set) {
+    int c = 0;
+    for (std::size_t w = 0; w < words; ++w) c += std::popcount(graph.Row(v)[w] & set[w]);
+    return c;
+  };
+  std::vector<int> starts = candidates;
+  std::sort(starts.begin(), starts.end(), [&](int a, int b) {
+    const int da = degree_in(a, cand);
+    const int db = degree_in(b, cand);
+    return da != db ? da > db : a < b;
+  });
+  constexpr std::size_t kMaxStarts = 16;
+  if (starts.size() > kMaxStarts) starts.resize(kMaxStarts);
+  std::vector<int> best;
+  for (const int s : starts) {
+    std::vector<int> clique{s};
+    Bits p(words);
+    for (std::size_t w = 0; w < words; ++w) p[w] = cand[w] & graph.Row(s)[w];
+    while (Any(p)) {
+      int pick = -1;
+      int pick_degree = -1;
+      for (std::size_t w = 0; w < words; ++w) {
+        for (std::uint64_t bits = p[w]; bits != 0; bits &= bits - 1) {
+          const int v = static_cast<int>(w * 64) + std::countr_zero(bits);
+          const int d = degree_in(v, p);
+          if (d > pick_degree) {
+            pick_degree = d;
+            pick = v;
+          }
+        }
+      }
+      clique.push_back(pick);
+      for (std::size_t w = 0; w < words; ++w) p[w] &= graph.Row(pick)[w];
+    }
+    if (clique.size() > best.size()) best = clique;
+  }
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
+CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& required,
+                                 const std::vector<int>& candidates, const CliqueOptions& options) {
+  const auto start = Clock::now();
+  const bool budgeted = options.time_budget_ms > 0.0;
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(
+                  std::chrono::duration<double, std::milli>(options.time_budget_ms));
+  // Local renumbering by decreasing degree inside the candidate set.
+  const int m = static_cast<int>(candidates.size());
+  const std::size_t gw = static_cast<std::size_t>(graph.NumWords());
+  Bits cand(gw, 0);
+  for (const int v : candidates) Set(cand, v);
+  std::vector<int> degree(static_cast<std::size_t>(m));
+  for (int i = 0; i < m; ++i) {
+    int c = 0;
+    for (std::size_t w = 0; w < gw; ++w) {
+      c += std::popcount(graph.Row(candidates[static_cast<std::size_t>(i)])[w] & cand[w]);
+    }
+    degree[static_cast<std::size_t>(i)] = c;
+  }
+  std::vector<int> local(static_cast<std::size_t>(m));
+  std::iota(local.begin(), local.end(), 0);
+  std::sort(local.begin(), local.end(), [&](int a, int b) {
+    const int da = degree[static_cast<std::size_t>(a)];
+    const int db = degree[static_cast<std::size_t>(b)];
+    return da != db
+               ? da > db
+               : candidates[static_cast<std::size_t>(a)] < candidates[static_cast<std::size_t>(b)];
+  });
+  std::vector<int> to_global(static_cast<std::size_t>(m));
+  for (int i = 0; i < m; ++i) {
+    to_global[static_cast<std::size_t>(i)] =
+        candidates[static_cast<std::size_t>(local[static_cast<std::size_t>(i)])];
+  }
+  const std::size_t lw = static_cast<std::size_t>((m + 63) / 64);
+  std::vector<Bits> adj(static_cast<std::size_t>(m), Bits(lw, 0));
+  for (int i = 0; i < m; ++i) {
+    const auto& row = graph.Row(to_global[static_cast<std::size_t>(i)]);
+    for (int j = i + 1; j < m; ++j) {
+      if (Test(row, to_global[static_cast<std::size_t>(j)])) {
+        Set(adj[static_cast<std::size_t>(i)], j);
+        Set(adj[static_cast<std::size_t>(j)], i);
+      }
+    }
+  }
+  const int required_size = static_cast<int>(required.size());
+  Solver solver(std::move(adj), std::max(0, options.lower_bound - required_size), deadline,
+                budgeted);
+  solver.Run();
+
+  CliqueResult result;
+  result.nodes = solver.nodes();
+  std::vector<int> found;
+  for (const int v : solver.best()) found.push_back(to_global[static_cast<std::size_t>(v)]);
+  if (solver.aborted()) {
+    result.exact = false;
+    std::vector<int> greedy = GreedyClique(graph, candidates);
+    if (greedy.size() > found.size()) found = std::move(greedy);
+  }
+  if (!found.empty() && required_size + static_cast<int>(found.size()) > options.lower_bound) {
+    result.vertices = required;
+    result.vertices.insert(result.vertices.end(), found.begin(), found.end());
+    std::sort(result.vertices.begin(), result.vertices.end());
+  } else if (found.empty() && required_size > options.lower_bound) {
+    result.vertices = required;
+    std::sort(result.vertices.begin(), result.vertices.end());
+  }
+  return result;
+}
+
+CliqueResult MaximumClique(const Graph& graph, const CliqueOptions& options) {
+  std::vector<int> all(static_cast<std::size_t>(graph.NumVertices()));
+  std::iota(all.begin(), all.end(), 0);
+  return MaximumCliqueWithin(graph, {}, all, options);
+}
+
+namespace {
+
+void BronKerbosch(const Graph& graph, std::vector<int>& r, Bits p, Bits x, std::vector<int>& best) {
+  if (!Any(p)) {
+    if (!Any(x) && r.size() > best.size()) best = r;
+    return;
+  }
+  const std::size_t words = p.size();
+  for (int v = Lowest(p); v >= 0; v = Lowest(p)) {
+    Bits np(words);
+    Bits nx(words);
+    for (std::size_t w = 0; w < words; ++w) {
+      np[w] = p[w] & graph.Row(v)[w];
+      nx[w] = x[w] & graph.Row(v)[w];
+    }
+    r.push_back(v);
+    BronKerbosch(graph, r, std::move(np), std::move(nx), best);
+    r.pop_back();
+    Clear(p, v);
+    Set(x, v);
+  }
+}
+
+}  // namespace
+
+std::vector<int> MaximumCliqueBronKerboschNaive(const Graph& graph) {
+  const std::size_t words = static_cast<std::size_t>(graph.NumWords());
+  Bits p(words, 0);
+  for (int v = 0; v < graph.NumVertices(); ++v) Set(p, v);
+  std::vector<int> r;
+  std::vector<int> best;
+  BronKerbosch(graph, r, p, Bits(words, 0), best);
+  std::sort(best.begin(), best.end());
+  return best;
+}
+
+}  // namespace draco::consistency

@@ -1,0 +1,370 @@
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <set>
+
+#include "draco/consistency/filter.hpp"
+#include "draco/consistency/max_clique.hpp"
+#include "draco/consistency/pairwise.hpp"
+#include "draco/consistency/se2.hpp"
+#include "synthetic.hpp"
+
+namespace draco::consistency {
+namespace {
+
+Eigen::Vector3d Vec(const Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
+Pose2 Plus(const Pose2& p, const Eigen::Vector3d& d) {
+  return {p.x_m + d.x(), p.y_m + d.y(), p.yaw_rad + d.z()};
+}
+Eigen::Vector3d Diff(const Pose2& a, const Pose2& b) {
+  return {a.x_m - b.x_m, a.y_m - b.y_m, WrapAngle(a.yaw_rad - b.yaw_rad)};
+}
+
+template <typename F>
+Eigen::Matrix3d Numeric(const Pose2& at, F f) {
+  Eigen::Matrix3d J;
+  const double h = 1e-6;
+  for (int c = 0; c < 3; ++c) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d(c) = h;
+    J.col(c) = Diff(f(Plus(at, d)), f(Plus(at, -d))) / (2.0 * h);
+  }
+  return J;
+}
+
+TEST(Se2, ComposeInverseJacobiansMatchNumericDifferentiation) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Pose2 a{u(rng), u(rng), u(rng)};
+    const Pose2 b{u(rng), u(rng), u(rng)};
+    Eigen::Matrix3d J_a;
+    Eigen::Matrix3d J_b;
+    Eigen::Matrix3d J_i;
+    Compose(a, b, &J_a, &J_b);
+    Inverse(a, &J_i);
+    EXPECT_TRUE(J_a.isApprox(Numeric(a, [&](const Pose2& x) { return Compose(x, b); }), 1e-6));
+    EXPECT_TRUE(J_b.isApprox(Numeric(b, [&](const Pose2& x) { return Compose(a, x); }), 1e-6));
+    EXPECT_TRUE(J_i.isApprox(Numeric(a, [&](const Pose2& x) { return Inverse(x); }), 1e-6));
+    const Pose2 id = Compose(a, Inverse(a));
+    EXPECT_NEAR(Vec(id).norm(), 0.0, 1e-12);
+  }
+}
+
+TEST(Se2, CovariancePropagationMatchesMonteCarlo) {
+  const UncertainPose a{{1.0, 2.0, 0.7}, Eigen::Vector3d(0.01, 0.02, 0.001).asDiagonal()};
+  const UncertainPose b{{3.0, -1.0, -0.4}, Eigen::Vector3d(0.03, 0.01, 0.002).asDiagonal()};
+  const UncertainPose c = Compose(Inverse(a), b);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const Eigen::Matrix3d La = a.covariance.llt().matrixL();
+  const Eigen::Matrix3d Lb = b.covariance.llt().matrixL();
+  Eigen::Matrix3d sample = Eigen::Matrix3d::Zero();
+  const int n = 100000;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d na = La * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    const Eigen::Vector3d nb = Lb * Eigen::Vector3d(g(rng), g(rng), g(rng));
+    const Eigen::Vector3d d = Diff(Compose(Inverse(Plus(a.pose, na)), Plus(b.pose, nb)), c.pose);
+    sample += d * d.transpose();
+  }
+  sample /= n;
+  EXPECT_LT((sample - c.covariance).norm(), 0.05 * c.covariance.norm());
+}
+
+TEST(ChainPoseSource, RelativeMarginalEqualsChainPropagation) {
+  ChainPoseSource source;
+  const Eigen::Matrix3d step = Eigen::Vector3d(0.01, 0.02, 0.0005).asDiagonal();
+  std::vector<UncertainPose> steps;
+  Pose2 pose{5.0, 1.0, 0.3};
+  source.AddKeyframe(0, pose, step);
+  for (int k = 1; k < 12; ++k) {
+    const UncertainPose s{{1.5, 0.2 * k, 0.1 * (k % 3 - 1)}, step};
+    steps.push_back(s);
+    pose = Compose(pose, s.pose);
+    source.AddKeyframe(0, pose, step);
+  }
+  UncertainPose expected{{0, 0, 0}, Eigen::Matrix3d::Zero()};
+  for (int k = 3; k < 9; ++k) expected = Compose(expected, steps[static_cast<std::size_t>(k)]);
+  const auto rel = source.Relative(0, 3, 9);
+  ASSERT_TRUE(rel.has_value());
+  EXPECT_NEAR(Diff(rel->pose, expected.pose).norm(), 0.0, 1e-9);
+  EXPECT_TRUE(rel->covariance.isApprox(expected.covariance, 1e-9));
+  const auto back = source.Relative(0, 9, 3);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_TRUE(back->covariance.isApprox(Inverse(expected).covariance, 1e-9));
+}
+
+msgs::InterRobotLoop TrueLoop(const std::vector<Pose2>& own, int i, int teammate,
+                              const std::vector<Pose2>& team, int k, const Pose2& shift = {}) {
+  msgs::InterRobotLoop z;
+  z.own_keyframe = i;
+  z.teammate_robot = teammate;
+  z.teammate_keyframe = k;
+  Pose2 target = team[static_cast<std::size_t>(k)];
+  target.x_m += shift.x_m;
+  target.y_m += shift.y_m;
+  z.T_ownkf_teammatekf = Between(own[static_cast<std::size_t>(i)], target);
+  z.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+  return z;
+}
+
+// Noise-free chains in map frames = each robot's first keyframe; exact map transforms.
+struct World {
+  std::vector<std::vector<Pose2>> poses;
+  ChainPoseSource source;
+  explicit World(int n) {
+    const Eigen::Matrix3d step = Eigen::Vector3d(4e-4, 4e-4, 1e-6).asDiagonal();
+    for (int r = 0; r < 3; ++r) {
+      poses.push_back(synthetic::Survey(r, n, 2.0));
+      for (int k = 0; k < n; ++k) source.AddKeyframe(r, Between(poses[r][0], poses[r][k]), step);
+    }
+    for (int b = 1; b < 3; ++b) {
+      source.SetMapTransform(
+          0, b,
+          {Between(poses[0][0], poses[b][0]), Eigen::Vector3d(0.01, 0.01, 1e-5).asDiagonal()});
+    }
+  }
+};
+
+TEST(Pairwise, TrueLoopsConsistentShiftedInconsistentBothModels) {
+  World w(160);
+  const auto z1 = TrueLoop(w.poses[0], 10, 1, w.poses[1], 140);
+  const auto z2 = TrueLoop(w.poses[0], 40, 1, w.poses[1], 120);
+  const auto z3 = TrueLoop(w.poses[0], 40, 2, w.poses[2], 60);
+  const auto bad = TrueLoop(w.poses[0], 40, 1, w.poses[1], 120, {2.0, 0.0, 0.0});
+  for (const auto model : {CovarianceModel::kFirstLoop, CovarianceModel::kPropagated}) {
+    const PairwiseOptions o{model, 11.34};
+    const auto same = TestPair(z1, z2, w.source, o);
+    EXPECT_TRUE(same.evaluated);
+    EXPECT_TRUE(same.consistent) << same.mahalanobis_squared;
+    EXPECT_NEAR(same.error.norm(), 0.0, 1e-9);
+    const auto across = TestPair(z1, z3, w.source, o);  // GCM: two teammates
+    EXPECT_TRUE(across.evaluated);
+    EXPECT_NEAR(across.error.norm(), 0.0, 1e-9);
+    EXPECT_FALSE(TestPair(z1, bad, w.source, o).consistent);
+  }
+  // Without a map transform a cross-teammate pair cannot be evaluated.
+  ChainPoseSource no_maps;
+  for (int r = 0; r < 3; ++r) {
+    for (const auto& p : w.poses[r]) no_maps.AddKeyframe(r, p, Eigen::Matrix3d::Identity());
+  }
+  EXPECT_FALSE(TestPair(z1, z3, no_maps, {}).evaluated);
+}
+
+// ---------------------------------------------------------------- maximum clique
+
+Graph RandomGraph(int n, double p, std::mt19937& rng) {
+  std::bernoulli_distribution edge(p);
+  Graph g(n);
+  for (int u = 0; u < n; ++u) {
+    for (int v = u + 1; v < n; ++v) {
+      if (edge(rng)) g.AddEdge(u, v);
+    }
+  }
+  return g;
+}
+
+bool IsClique(const Graph& g, const std::vector<int>& c) {
+  for (std::size_t a = 0; a < c.size(); ++a) {
+    for (std::size_t b = a + 1; b < c.size(); ++b) {
+      if (!g.HasEdge(c[a], c[b])) return false;
+    }
+  }
+  return true;
+}
+
+int BruteForceCliqueSize(const Graph& g) {
+  const int n = g.NumVertices();
+  int best = 0;
+  for (std::uint32_t mask = 0; mask < (1u << n); ++mask) {
+    std::vector<int> c;
+    for (int v = 0; v < n; ++v) {
+      if ((mask >> v) & 1u) c.push_back(v);
+    }
+    if (static_cast<int>(c.size()) > best && IsClique(g, c)) best = static_cast<int>(c.size());
+  }
+  return best;
+}
+
+TEST(MaxClique, ExactMatchesBruteForceOnRandomSmallGraphs) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = 1 + trial % 16;
+    const double p = 0.2 + 0.7 * (trial % 7) / 6.0;
+    const Graph g = RandomGraph(n, p, rng);
+    const CliqueResult r = MaximumClique(g);
+    EXPECT_TRUE(r.exact);
+    EXPECT_TRUE(IsClique(g, r.vertices));
+    const int brute = BruteForceCliqueSize(g);
+    EXPECT_EQ(static_cast<int>(r.vertices.size()), brute) << "trial " << trial;
+    EXPECT_EQ(static_cast<int>(MaximumCliqueBronKerboschNaive(g).size()), brute);
+  }
+}
+
+TEST(MaxClique, ExactMatchesNaiveBronKerboschOnMediumGraphs) {
+  std::mt19937 rng(12);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Graph g = RandomGraph(30 + trial * 2, 0.3 + 0.02 * trial, rng);
+    const CliqueResult r = MaximumClique(g);
+    EXPECT_TRUE(IsClique(g, r.vertices));
+    EXPECT_EQ(r.vertices.size(), MaximumCliqueBronKerboschNaive(g).size());
+  }
+}
+
+TEST(MaxClique, LowerBoundAndRequiredVertices) {
+  std::mt19937 rng(13);
+  const Graph g = RandomGraph(30, 0.5, rng);
+  const auto best = MaximumClique(g).vertices;
+  EXPECT_TRUE(MaximumClique(g, {0.0, static_cast<int>(best.size())}).vertices.empty());
+  EXPECT_EQ(MaximumClique(g, {0.0, static_cast<int>(best.size()) - 1}).vertices.size(),
+            best.size());
+  // Clique through best[0]: candidates = its neighbours.
+  std::vector<int> nb;
+  for (int u = 0; u < 30; ++u) {
+    if (g.HasEdge(u, best[0])) nb.push_back(u);
+  }
+  EXPECT_EQ(MaximumCliqueWithin(g, {best[0]}, nb).vertices.size(), best.size());
+}
+
+TEST(MaxClique, TinyBudgetFallsBackToHeuristicAndSaysSo) {
+  std::mt19937 rng(14);
+  const Graph g = RandomGraph(400, 0.9, rng);
+  const CliqueResult r = MaximumClique(g, {1e-6, 0});
+  EXPECT_FALSE(r.exact);
+  EXPECT_TRUE(IsClique(g, r.vertices));
+  EXPECT_GT(r.vertices.size(), 10u);
+}
+
+// ---------------------------------------------------------------- filters
+
+std::set<std::uint64_t> Ids(const std::vector<std::uint64_t>& v) { return {v.begin(), v.end()}; }
+
+// Feeds a mission step by step; returns the union of every newly accepted loop.
+std::set<std::uint64_t> Feed(ConsistencyFilter& filter, const synthetic::Mission& m,
+                             int batch_steps, Decision* last = nullptr) {
+  std::set<std::uint64_t> emitted;
+  std::size_t next = 0;
+  for (int step = 0; next < m.loops.size(); step += batch_steps) {
+    std::vector<msgs::InterRobotLoop> batch;
+    while (next < m.loops.size() && m.arrival[next] < step + batch_steps) {
+      batch.push_back(m.loops[next++]);
+    }
+    if (batch.empty()) continue;
+    const Decision d = filter.Add(batch, m.poses);
+    emitted.insert(d.newly_accepted.begin(), d.newly_accepted.end());
+    if (last != nullptr) *last = d;
+  }
+  return emitted;
+}
+
+TEST(Filter, AcceptsTrueLoopsRejectsRandomOutliers) {
+  for (const auto method : {Method::kPcm, Method::kGcm}) {
+    synthetic::MissionOptions mo;
+    mo.outlier_fraction = 0.5;
+    mo.seed = 21;
+    const auto m = synthetic::MakeMission(mo);
+    FilterOptions fo;
+    fo.method = method;
+    ConsistencyFilter filter(fo);
+    Decision last;
+    const auto emitted = Feed(filter, m, 5, &last);
+    EXPECT_TRUE(last.exact);
+    int true_accepted = 0;
+    for (const auto id : emitted) {
+      EXPECT_TRUE(m.inlier[id]) << MethodName(method) << " accepted outlier " << id;
+      true_accepted += m.inlier[id] ? 1 : 0;
+    }
+    EXPECT_GE(true_accepted, 50) << MethodName(method);  // of 60
+  }
+}
+
+// Teammate 1: 4 true loops and 6 nearby loops sharing one wrong offset (one pile spacing);
+// teammate 2: 6 true loops. PCM with teammate 1 alone accepts the wrong group (the largest
+// clique, above the minimum of 5); GCM tests them against teammate 2's loops through the
+// map transforms and keeps the 10 true ones.
+TEST(Filter, GcmRejectsCorrelatedGroupThatPcmAccepts) {
+  World w(160);
+  std::vector<msgs::InterRobotLoop> loops;
+  const std::vector<std::pair<int, int>> true1{{2, 158}, {30, 122}, {55, 97}, {90, 60}};
+  for (const auto& [i, k] : true1) loops.push_back(TrueLoop(w.poses[0], i, 1, w.poses[1], k));
+  for (int g = 0; g < 6; ++g) {
+    loops.push_back(TrueLoop(w.poses[0], 40 + g, 1, w.poses[1], 112 - g, {2.0, 0.0, 0.0}));
+  }
+  const std::vector<std::pair<int, int>> true2{{0, 0},   {20, 46},  {45, 70},
+                                               {60, 30}, {100, 88}, {130, 120}};
+  for (const auto& [i, k] : true2) loops.push_back(TrueLoop(w.poses[0], i, 2, w.poses[2], k));
+  for (std::size_t id = 0; id < loops.size(); ++id) loops[id].id = id;
+  for (const auto model : {CovarianceModel::kFirstLoop, CovarianceModel::kPropagated}) {
+    FilterOptions fo;
+    fo.pairwise.covariance = model;
+    fo.method = Method::kPcm;
+    ConsistencyFilter pcm(fo);
+    const auto p = Ids(pcm.Add(loops, w.source).accepted);
+    const std::set<std::uint64_t> wrong{4, 5, 6, 7, 8, 9};
+    for (const auto id : wrong) EXPECT_TRUE(p.count(id)) << "PCM should fall for " << id;
+    fo.method = Method::kGcm;
+    ConsistencyFilter gcm(fo);
+    const auto g = Ids(gcm.Add(loops, w.source).accepted);
+    const std::set<std::uint64_t> good{0, 1, 2, 3, 10, 11, 12, 13, 14, 15};
+    EXPECT_EQ(g, good) << CovarianceModelName(model);
+  }
+}
+
+TEST(Filter, IncrementalEqualsBatch) {
+  for (const auto kind : {synthetic::OutlierKind::kRandom, synthetic::OutlierKind::kCorrelated}) {
+    for (const auto method : {Method::kPcm, Method::kGcm}) {
+      synthetic::MissionOptions mo;
+      mo.outlier_fraction = 0.6;
+      mo.outliers = kind;
+      mo.seed = 31;
+      const auto m = synthetic::MakeMission(mo);
+      FilterOptions fo;
+      fo.method = method;
+      fo.time_budget_ms = 0.0;
+      ConsistencyFilter incremental(fo);
+      Decision last;
+      Feed(incremental, m, 3, &last);
+      ConsistencyFilter batch(fo);
+      const Decision all = batch.Add(m.loops, m.poses);
+      EXPECT_EQ(last.accepted.size(), all.accepted.size()) << MethodName(method);
+      // Equal-size maximum cliques may differ (a tie keeps the clique found first).
+      std::vector<std::uint64_t> common;
+      std::set_intersection(last.accepted.begin(), last.accepted.end(), all.accepted.begin(),
+                            all.accepted.end(), std::back_inserter(common));
+      EXPECT_GE(common.size() * 10, all.accepted.size() * 9) << MethodName(method);
+      EXPECT_LT(last.pair_tests, all.pair_tests + 1);
+    }
+  }
+}
+
+TEST(Filter, ReferenceQueueTrimsAfterSuccessAndNeverRetracts) {
+  synthetic::MissionOptions mo;
+  mo.outlier_fraction = 0.3;
+  mo.seed = 41;
+  const auto m = synthetic::MakeMission(mo);
+  FilterOptions fo;
+  fo.queue = QueueMode::kReference;
+  ConsistencyFilter filter(fo);
+  std::size_t accepted = 0;
+  std::size_t next = 0;
+  for (int step = 0; next < m.loops.size(); step += 5) {
+    std::vector<msgs::InterRobotLoop> batch;
+    while (next < m.loops.size() && m.arrival[next] < step + 5) batch.push_back(m.loops[next++]);
+    if (batch.empty()) continue;
+    const Decision d = filter.Add(batch, m.poses);
+    EXPECT_TRUE(d.retracted.empty());
+    EXPECT_GE(d.accepted.size(), accepted);
+    accepted = d.accepted.size();
+    // After a success the pair tests of the next step are against at most keep + new loops.
+    EXPECT_LE(d.pair_tests, static_cast<std::int64_t>(m.loops.size() * batch.size()));
+  }
+  EXPECT_GT(accepted, 20u);
+}
+
+}  // namespace
+}  // namespace draco::consistency
