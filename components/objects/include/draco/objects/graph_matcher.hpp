@@ -1,0 +1,82 @@
+// Object-graph matching (DRACo-SLAM2 section III-B): both object maps as complete graphs
+// with centre distances as edge weights, the quadratic assignment problem relaxed to the
+// principal eigenvector of the affinity matrix (spectral matching), a rectangular linear
+// assignment on the negated eigenvector weights, RANSAC for a rigid SE(2) transform, and a
+// re-match of all objects in the aligned frame.
+//
+// Affinity between candidate assignments (i, k) and (j, l) (i != j in map a, k != l in
+// map b; entries that pair an object with itself are 0):
+//   code:  exp(-mu |w_ij - w_kl|) s(i,k) s(j,l),  s(i,k) = exp(-2 (|l_i - l_k| + |b_i - b_k|))
+//   paper: exp(-mu |w_ij - w_kl| - |l_i - l_k| - |b_i - b_k|)   (shape of one vertex pair
+//          only, so the matrix is not symmetric)
+// The reference builds the dense (n_a n_b)^2 matrix. Here only candidate assignments whose
+// shape similarity is at least min_shape_similarity are kept, and for each pair of them
+// only entries of at least min_affinity (|w_ij - w_kl| <= ln(1 / min_affinity) / mu, found
+// by a binary search in map b's sorted edge weights). The eigenvector comes from power
+// iteration started from the uniform vector (deterministic).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "draco/msgs/objects.hpp"
+
+namespace draco::objects {
+
+enum class AffinityForm { kCode, kPaper };
+
+struct MatcherOptions {
+  AffinityForm affinity = AffinityForm::kCode;
+  double mu_per_m = 8.0;  // the code's 8 (the paper says 4)
+  // Sparsity: candidate (i, k) needs its shape term >= this; entries below min_affinity
+  // are dropped.
+  double min_shape_similarity = 1e-3;
+  double min_affinity = 1e-4;
+  bool dense = false;  // the reference's dense matrix (small maps only; for comparison)
+  int max_power_iterations = 300;
+  double power_tolerance = 1e-9;  // max change of a component of the unit eigenvector
+  int min_objects = 5;            // per map (the reference: 5 objects and 10 edges)
+  int min_edges = 10;
+  // Keep assignments whose eigenvector weight is 0 (pairs outside the candidates). The
+  // reference keeps all min(n_a, n_b) assignments; they are outliers for RANSAC.
+  bool keep_zero_weight_assignments = false;
+  int min_assignments = 5;
+  int min_inliers = 4;
+  double ransac_threshold_m = 5.0;
+  int ransac_iterations = 1000;  // all pairs of assignments when there are fewer pairs
+  std::uint64_t seed = 1;
+  double rematch_distance_m = 5.0;
+};
+
+// Symmetric sparse storage: each entry stands for M(r, c) = v_rc and M(c, r) = v_cr.
+struct SparseAffinity {
+  int n_a = 0, n_b = 0;
+  std::vector<std::int32_t> candidate_of;       // n_a x n_b -> candidate index or -1
+  std::vector<std::pair<int, int>> candidates;  // (i, k)
+  struct Entry {
+    std::uint32_t r = 0, c = 0;
+    float v_rc = 0.0f, v_cr = 0.0f;
+  };
+  std::vector<Entry> entries;
+};
+
+SparseAffinity BuildAffinity(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                             const MatcherOptions& options);
+
+// Unit principal eigenvector (one value per candidate) by power iteration from the uniform
+// vector. iterations: optional output.
+std::vector<double> PrincipalEigenvector(const SparseAffinity& affinity,
+                                         const MatcherOptions& options, int* iterations = nullptr);
+
+// n_a x n_b row-major assignment weights |eigenvector| (0 outside the candidates); with
+// options.dense the reference's dense matrix is built instead.
+std::vector<double> AssignmentWeights(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                      const MatcherOptions& options, int* num_candidates = nullptr,
+                                      int* num_entries = nullptr);
+
+// Matches teammate map b against own map a: T_a_b, pairs, inliers and a confidence, or the
+// reason for no match.
+msgs::ObjectMatch MatchObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                  const MatcherOptions& options = {});
+
+}  // namespace draco::objects

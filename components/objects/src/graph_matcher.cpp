@@ -1,0 +1,358 @@
+// Object-graph matching (see graph_matcher.hpp).
+#include "draco/objects/graph_matcher.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include "draco/objects/assignment.hpp"
+#include "draco/objects/geometry.hpp"
+
+namespace draco::objects {
+namespace {
+
+using msgs::MatchStatus;
+using msgs::ObjectMap;
+
+double Distance(const Point2& p, const Point2& q) {
+  return std::hypot(p.x_m - q.x_m, p.y_m - q.y_m);
+}
+
+// Shape term of one vertex pair: the code's s(i,k) = exp(-2 (|dl| + |db|)); the paper's
+// exp(-(|dl| + |db|)).
+double Shape(const msgs::Object& p, const msgs::Object& q, AffinityForm form) {
+  const double d = std::abs(p.length_m - q.length_m) + std::abs(p.breadth_m - q.breadth_m);
+  return std::exp(-(form == AffinityForm::kCode ? 2.0 : 1.0) * d);
+}
+
+struct EdgeB {
+  float w;
+  std::uint16_t k, l;
+};
+
+}  // namespace
+
+SparseAffinity BuildAffinity(const ObjectMap& a, const ObjectMap& b,
+                             const MatcherOptions& options) {
+  if (a.objects.size() > 65535 || b.objects.size() > 65535) {
+    throw std::invalid_argument("BuildAffinity: at most 65535 objects per map");
+  }
+  SparseAffinity out;
+  const int na = static_cast<int>(a.objects.size()), nb = static_cast<int>(b.objects.size());
+  out.n_a = na;
+  out.n_b = nb;
+  out.candidate_of.assign(std::size_t(na) * nb, -1);
+  std::vector<double> shape(std::size_t(na) * nb, 0.0);
+  for (int i = 0; i < na; ++i) {
+    for (int k = 0; k < nb; ++k) {
+      const double s = Shape(a.objects[i], b.objects[k], options.affinity);
+      if (s < options.min_shape_similarity) continue;
+      out.candidate_of[std::size_t(i) * nb + k] = static_cast<std::int32_t>(out.candidates.size());
+      out.candidates.emplace_back(i, k);
+      shape[std::size_t(i) * nb + k] = s;
+    }
+  }
+  if (out.candidates.empty()) return out;
+  // Map b's directed edges, sorted by weight.
+  std::vector<EdgeB> edges_b;
+  edges_b.reserve(std::size_t(nb) * (nb > 0 ? nb - 1 : 0));
+  for (int k = 0; k < nb; ++k) {
+    for (int l = 0; l < nb; ++l) {
+      if (k == l) continue;
+      edges_b.push_back({static_cast<float>(Distance(b.objects[k].center, b.objects[l].center)),
+                         static_cast<std::uint16_t>(k), static_cast<std::uint16_t>(l)});
+    }
+  }
+  std::sort(edges_b.begin(), edges_b.end(), [](const EdgeB& x, const EdgeB& y) {
+    return x.w < y.w || (x.w == y.w && (x.k < y.k || (x.k == y.k && x.l < y.l)));
+  });
+  const double window = std::log(1.0 / options.min_affinity) / options.mu_per_m;
+  const bool code = options.affinity == AffinityForm::kCode;
+  // Each unordered pair {i, j} of map a with each ordered pair (k, l) of map b gives the
+  // symmetric pair of entries ((i,k), (j,l)) and ((j,l), (i,k)).
+  for (int i = 0; i < na; ++i) {
+    for (int j = i + 1; j < na; ++j) {
+      const double w = Distance(a.objects[i].center, a.objects[j].center);
+      auto it = std::lower_bound(edges_b.begin(), edges_b.end(), static_cast<float>(w - window),
+                                 [](const EdgeB& e, float v) { return e.w < v; });
+      for (; it != edges_b.end() && it->w <= w + window; ++it) {
+        const std::int32_t r = out.candidate_of[std::size_t(i) * nb + it->k];
+        const std::int32_t c = out.candidate_of[std::size_t(j) * nb + it->l];
+        if (r < 0 || c < 0) continue;
+        const double e = std::exp(-options.mu_per_m * std::abs(w - double(it->w)));
+        const double s_ik = shape[std::size_t(i) * nb + it->k];
+        const double s_jl = shape[std::size_t(j) * nb + it->l];
+        const double v_rc = code ? e * s_ik * s_jl : e * s_ik;
+        const double v_cr = code ? v_rc : e * s_jl;
+        if (std::max(v_rc, v_cr) < options.min_affinity) continue;
+        out.entries.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(c),
+                               static_cast<float>(v_rc), static_cast<float>(v_cr)});
+      }
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// Power iteration y = M x / |M x| from the uniform vector; mat_vec(x, y) sets y = M x.
+template <class MatVec>
+std::vector<double> PowerIteration(std::size_t n, const MatcherOptions& options, MatVec mat_vec,
+                                   int* iterations) {
+  std::vector<double> x(n, n > 0 ? 1.0 / std::sqrt(double(n)) : 0.0), y(n);
+  int it = 0;
+  for (; it < options.max_power_iterations; ++it) {
+    mat_vec(x, &y);
+    double norm = 0.0;
+    for (const double v : y) norm += v * v;
+    norm = std::sqrt(norm);
+    if (norm == 0.0) break;  // no entries: keep the uniform vector
+    double change = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      y[i] /= norm;
+      change = std::max(change, std::abs(y[i] - x[i]));
+    }
+    x.swap(y);
+    if (change < options.power_tolerance) {
+      ++it;
+      break;
+    }
+  }
+  if (iterations) *iterations = it;
+  return x;
+}
+
+}  // namespace
+
+std::vector<double> PrincipalEigenvector(const SparseAffinity& affinity,
+                                         const MatcherOptions& options, int* iterations) {
+  return PowerIteration(
+      affinity.candidates.size(), options,
+      [&](const std::vector<double>& x, std::vector<double>* y) {
+        std::fill(y->begin(), y->end(), 0.0);
+        double* out = y->data();
+        for (const auto& e : affinity.entries) {
+          out[e.r] += double(e.v_rc) * x[e.c];
+          out[e.c] += double(e.v_cr) * x[e.r];
+        }
+      },
+      iterations);
+}
+
+std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
+                                      const MatcherOptions& options, int* num_candidates,
+                                      int* num_entries) {
+  const int na = static_cast<int>(a.objects.size()), nb = static_cast<int>(b.objects.size());
+  std::vector<double> weights(std::size_t(na) * nb, 0.0);
+  if (options.dense) {
+    // The reference: every (i,k) x (j,l) entry of the (n_a n_b)^2 matrix.
+    const std::size_t n = std::size_t(na) * nb;
+    if (n > 4096) throw std::invalid_argument("AssignmentWeights: dense needs n_a n_b <= 4096");
+    std::vector<double> m(n * n, 0.0);
+    const bool code = options.affinity == AffinityForm::kCode;
+    for (int i = 0; i < na; ++i) {
+      for (int k = 0; k < nb; ++k) {
+        const double s_ik = Shape(a.objects[i], b.objects[k], options.affinity);
+        for (int j = 0; j < na; ++j) {
+          if (j == i) continue;
+          const double w_ij = Distance(a.objects[i].center, a.objects[j].center);
+          for (int l = 0; l < nb; ++l) {
+            if (l == k) continue;
+            const double w_kl = Distance(b.objects[k].center, b.objects[l].center);
+            const double e = std::exp(-options.mu_per_m * std::abs(w_ij - w_kl));
+            m[(std::size_t(i) * nb + k) * n + std::size_t(j) * nb + l] =
+                code ? e * s_ik * Shape(a.objects[j], b.objects[l], options.affinity) : e * s_ik;
+          }
+        }
+      }
+    }
+    const auto x = PowerIteration(
+        n, options,
+        [&](const std::vector<double>& v, std::vector<double>* y) {
+          for (std::size_t r = 0; r < n; ++r) {
+            double sum = 0.0;
+            const double* row = &m[r * n];
+            for (std::size_t c = 0; c < n; ++c) sum += row[c] * v[c];
+            (*y)[r] = sum;
+          }
+        },
+        nullptr);
+    for (std::size_t c = 0; c < n; ++c) weights[c] = std::abs(x[c]);
+    if (num_candidates) *num_candidates = static_cast<int>(n);
+    if (num_entries) *num_entries = static_cast<int>(n * n);
+    return weights;
+  }
+  const SparseAffinity affinity = BuildAffinity(a, b, options);
+  const auto x = PrincipalEigenvector(affinity, options);
+  for (std::size_t c = 0; c < affinity.candidates.size(); ++c) {
+    const auto [i, k] = affinity.candidates[c];
+    weights[std::size_t(i) * nb + k] = std::abs(x[c]);
+  }
+  if (num_candidates) *num_candidates = static_cast<int>(affinity.candidates.size());
+  if (num_entries) *num_entries = static_cast<int>(affinity.entries.size());
+  return weights;
+}
+
+namespace {
+
+struct Hypothesis {
+  Pose2 T;
+  int inliers = -1;
+  double cost = std::numeric_limits<double>::infinity();
+};
+
+// Inliers (residual < threshold) and the truncated squared cost (MSAC) of T.
+Hypothesis Score(const Pose2& T, const std::vector<Point2>& pa, const std::vector<Point2>& pb,
+                 double threshold, std::vector<char>* inlier) {
+  Hypothesis h{T, 0, 0.0};
+  if (inlier) inlier->assign(pa.size(), 0);
+  for (std::size_t i = 0; i < pa.size(); ++i) {
+    const double r = Distance(pa[i], Transform(T, pb[i]));
+    if (r < threshold) {
+      ++h.inliers;
+      if (inlier) (*inlier)[i] = 1;
+    }
+    h.cost += std::min(r * r, threshold * threshold);
+  }
+  return h;
+}
+
+bool Better(const Hypothesis& x, const Hypothesis& y) {
+  return x.inliers > y.inliers || (x.inliers == y.inliers && x.cost < y.cost);
+}
+
+}  // namespace
+
+msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
+                                  const MatcherOptions& options) {
+  msgs::ObjectMatch match;
+  match.robot_a = a.robot_id;
+  match.robot_b = b.robot_id;
+  const int na = static_cast<int>(a.objects.size()), nb = static_cast<int>(b.objects.size());
+  const int edges = std::min(na * (na - 1), nb * (nb - 1)) / 2;
+  if (std::min(na, nb) < options.min_objects || edges < options.min_edges) {
+    match.status = MatchStatus::kTooFewObjects;
+    return match;
+  }
+  // 1. Spectral relaxation of the QAP.
+  const std::vector<double> weights =
+      AssignmentWeights(a, b, options, &match.num_candidates, &match.num_affinity_entries);
+  if (match.num_candidates == 0 || match.num_affinity_entries == 0) {
+    match.status = MatchStatus::kNoCandidates;
+    return match;
+  }
+  // 2. Linear assignment on the negated weights.
+  std::vector<double> cost(weights.size());
+  for (std::size_t c = 0; c < weights.size(); ++c) cost[c] = -weights[c];
+  const std::vector<int> col = SolveAssignment(cost, na, nb);
+  std::vector<Point2> pa, pb;
+  for (int i = 0; i < na; ++i) {
+    if (col[i] < 0) continue;
+    if (!options.keep_zero_weight_assignments && weights[std::size_t(i) * nb + col[i]] <= 0.0) {
+      continue;
+    }
+    pa.push_back(a.objects[i].center);
+    pb.push_back(b.objects[col[i]].center);
+  }
+  match.num_assignments = static_cast<int>(pa.size());
+  if (match.num_assignments < options.min_assignments) {
+    match.status = MatchStatus::kTooFewAssignments;
+    return match;
+  }
+  // 3. RANSAC over pairs of assignments (every pair when there are few).
+  const std::size_t n = pa.size();
+  const double thr = options.ransac_threshold_m;
+  Hypothesis best;
+  auto try_sample = [&](std::size_t s, std::size_t t) {
+    const double da = Distance(pa[s], pa[t]), db = Distance(pb[s], pb[t]);
+    if (da < 1e-6 || std::abs(da - db) > thr) return;  // a rigid motion keeps distances
+    const Hypothesis h = Score(FitRigid({pa[s], pa[t]}, {pb[s], pb[t]}), pa, pb, thr, nullptr);
+    if (Better(h, best)) best = h;
+  };
+  const std::size_t all_pairs = n * (n - 1) / 2;
+  if (all_pairs <= static_cast<std::size_t>(std::max(0, options.ransac_iterations))) {
+    for (std::size_t s = 0; s < n; ++s) {
+      for (std::size_t t = s + 1; t < n; ++t) try_sample(s, t);
+    }
+  } else {
+    std::mt19937_64 rng(options.seed);
+    for (int it = 0; it < options.ransac_iterations; ++it) {
+      const std::size_t s = rng() % n;
+      std::size_t t = rng() % (n - 1);
+      if (t >= s) ++t;
+      try_sample(s, t);
+    }
+  }
+  if (best.inliers < 0) best.inliers = 0;
+  if (best.inliers >= 2) {  // refit on the inliers while that does not lose any
+    std::vector<char> inlier;
+    Score(best.T, pa, pb, thr, &inlier);
+    std::vector<Point2> qa, qb;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (inlier[i]) qa.push_back(pa[i]), qb.push_back(pb[i]);
+    }
+    const Hypothesis refit = Score(FitRigid(qa, qb), pa, pb, thr, nullptr);
+    if (!Better(best, refit)) best = refit;
+  }
+  match.num_ransac_inliers = best.inliers;
+  if (best.inliers < options.min_inliers) {
+    match.status = MatchStatus::kTooFewInliers;
+    return match;
+  }
+  // 4. Re-match every object in the aligned frame on centre distance; refit (twice, so the
+  // second assignment sees the refined transform).
+  Pose2 T = best.T;
+  std::vector<std::pair<int, int>> pairs;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<Point2> moved_b(nb);
+    for (int k = 0; k < nb; ++k) moved_b[k] = Transform(T, b.objects[k].center);
+    std::vector<double> d(std::size_t(na) * nb);
+    for (int i = 0; i < na; ++i) {
+      for (int k = 0; k < nb; ++k)
+        d[std::size_t(i) * nb + k] = Distance(a.objects[i].center, moved_b[k]);
+    }
+    // Gated cost: every pair beyond the gate costs the same, so far pairs never pull the
+    // assignment away from near ones (with plain distances, two rows of piles shifted by
+    // one pile have equal-cost assignments that pair no pile with its neighbour).
+    std::vector<double> gated(d.size());
+    for (std::size_t c = 0; c < d.size(); ++c)
+      gated[c] = std::min(d[c], options.rematch_distance_m);
+    const std::vector<int> rematch = SolveAssignment(gated, na, nb);
+    std::vector<std::pair<int, int>> kept;
+    std::vector<Point2> qa, qb;
+    for (int i = 0; i < na; ++i) {
+      if (rematch[i] < 0 || d[std::size_t(i) * nb + rematch[i]] >= options.rematch_distance_m) {
+        continue;
+      }
+      kept.emplace_back(i, rematch[i]);
+      qa.push_back(a.objects[i].center);
+      qb.push_back(b.objects[rematch[i]].center);
+    }
+    if (static_cast<int>(kept.size()) < options.min_inliers) {
+      match.status = MatchStatus::kTooFewInliers;
+      match.num_inliers = static_cast<int>(kept.size());
+      return match;
+    }
+    T = FitRigid(qa, qb);
+    if (kept == pairs) break;
+    pairs = std::move(kept);
+  }
+  // 5. Outcome.
+  match.status = MatchStatus::kMatched;
+  match.T_a_b = T;
+  match.T_a_b.yaw_rad = NormalizeAngle(T.yaw_rad);
+  double sum2 = 0.0;
+  for (const auto& [i, k] : pairs) {
+    const double r = Distance(a.objects[i].center, Transform(T, b.objects[k].center));
+    match.pairs.push_back({a.objects[i].id, b.objects[k].id, r});
+    sum2 += r * r;
+  }
+  match.num_inliers = static_cast<int>(pairs.size());
+  match.rmse_m = std::sqrt(sum2 / double(pairs.size()));
+  match.confidence = double(match.num_inliers) / double(std::min(na, nb));
+  return match;
+}
+
+}  // namespace draco::objects
