@@ -1,0 +1,35 @@
+// A small static 2D kd-tree over a point array (median splits on the wider axis, leaves of
+// up to 8 points): nearest neighbour within a radius and k nearest neighbours.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace draco::icp {
+
+using Cloud2 = std::vector<Eigen::Vector2d>;
+
+class KdTree2 {
+ public:
+  KdTree2() = default;
+  explicit KdTree2(const Cloud2& points) { Build(points); }
+  // Keeps a pointer to `points`: they must outlive the tree and not change.
+  void Build(const Cloud2& points);
+
+  // Index of the nearest point with squared distance <= max_distance2 (and the squared
+  // distance), or -1.
+  int Nearest(const Eigen::Vector2d& q, double max_distance2, double* distance2) const;
+  // Up to k nearest indices, closest first.
+  void KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const;
+  std::size_t size() const { return index_.size(); }
+
+ private:
+  void BuildRange(int lo, int hi);
+  void NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2, int* best) const;
+  const Cloud2* points_ = nullptr;
+  std::vector<int> index_;
+  std::vector<std::uint8_t> dim_;  // split axis of the node whose median sits at position i
+};
+
+}  // namespace draco::icp

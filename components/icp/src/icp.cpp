@@ -1,0 +1,235 @@
+// 2D ICP (see icp.hpp).
+#include "draco/icp/icp.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+namespace draco::icp {
+namespace {
+
+struct Rigid {
+  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  double yaw = 0.0;
+};
+
+Rigid FromPose(const msgs::Pose2& p) {
+  Rigid r;
+  r.yaw = p.yaw_rad;
+  r.R = Eigen::Rotation2Dd(p.yaw_rad).toRotationMatrix();
+  r.t = {p.x_m, p.y_m};
+  return r;
+}
+
+msgs::Pose2 ToPose(const Rigid& r) {
+  return msgs::Pose2{r.t.x(), r.t.y(), std::remainder(r.yaw, 2.0 * M_PI)};
+}
+
+// delta * current.
+Rigid ComposeLeft(const Rigid& delta, const Rigid& current) {
+  Rigid r;
+  r.yaw = delta.yaw + current.yaw;
+  r.R = Eigen::Rotation2Dd(r.yaw).toRotationMatrix();
+  r.t = delta.R * current.t + delta.t;
+  return r;
+}
+
+struct Pair {
+  int source;
+  int target;
+  double distance2;
+};
+
+// Closed-form rigid alignment of paired points (2D Kabsch / Horn).
+Rigid SolvePointToPoint(const Cloud2& moved, const Cloud2& target, const std::vector<Pair>& pairs) {
+  Eigen::Vector2d ms = Eigen::Vector2d::Zero(), mt = Eigen::Vector2d::Zero();
+  for (const Pair& p : pairs) {
+    ms += moved[p.source];
+    mt += target[p.target];
+  }
+  ms /= static_cast<double>(pairs.size());
+  mt /= static_cast<double>(pairs.size());
+  double sc = 0.0, ss = 0.0;  // sum of dot and cross products of centred pairs
+  for (const Pair& p : pairs) {
+    const Eigen::Vector2d a = moved[p.source] - ms, b = target[p.target] - mt;
+    sc += a.dot(b);
+    ss += a.x() * b.y() - a.y() * b.x();
+  }
+  Rigid d;
+  d.yaw = std::atan2(ss, sc);
+  d.R = Eigen::Rotation2Dd(d.yaw).toRotationMatrix();
+  d.t = mt - d.R * ms;
+  return d;
+}
+
+// One Gauss-Newton step of sum (n_i . (p_i + t + theta S p_i - q_i))^2, small-angle
+// linearised about the identity (left perturbation).
+Rigid SolvePointToLine(const Cloud2& moved, IcpTarget& target, const std::vector<Pair>& pairs,
+                       int neighbors) {
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  for (const Pair& p : pairs) {
+    const Eigen::Vector2d& n = target.Normal(p.target, neighbors);
+    const Eigen::Vector2d& s = moved[p.source];
+    const Eigen::Vector3d J(n.x(), n.y(), n.x() * -s.y() + n.y() * s.x());
+    const double r = n.dot(s - target.points()[p.target]);
+    H += J * J.transpose();
+    g += J * r;
+  }
+  H.diagonal().array() += 1e-9 * (1.0 + H.trace());
+  const Eigen::Vector3d x = -H.ldlt().solve(g);
+  Rigid d;
+  d.yaw = x.z();
+  d.R = Eigen::Rotation2Dd(d.yaw).toRotationMatrix();
+  d.t = x.head<2>();
+  return d;
+}
+
+}  // namespace
+
+IcpTarget::IcpTarget(Cloud2 points) : points_(std::move(points)) {
+  tree_.Build(points_);
+  normals_.resize(points_.size());
+  has_normal_.assign(points_.size(), 0);
+}
+
+const Eigen::Vector2d& IcpTarget::Normal(int i, int neighbors) {
+  if (!has_normal_[i]) {
+    tree_.KNearest(points_[i], std::max(neighbors, 2), &scratch_);
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (int j : scratch_) mean += points_[j];
+    mean /= static_cast<double>(scratch_.size());
+    Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+    for (int j : scratch_) C += (points_[j] - mean) * (points_[j] - mean).transpose();
+    // Normal = eigenvector of the smallest eigenvalue (closed form for 2x2).
+    const double a = C(0, 0), b = C(0, 1), c = C(1, 1);
+    const double major = 0.5 * std::atan2(2.0 * b, a - c);  // direction of the largest spread
+    normals_[i] = Eigen::Vector2d(-std::sin(major), std::cos(major));
+    has_normal_[i] = 1;
+  }
+  return normals_[i];
+}
+
+double OverlapRatio(const Cloud2& source, const KdTree2& target, const msgs::Pose2& T_target_source,
+                    double max_distance_m) {
+  if (source.empty()) return 0.0;
+  const Rigid T = FromPose(T_target_source);
+  const double max2 = max_distance_m * max_distance_m;
+  int hits = 0;
+  for (const Eigen::Vector2d& p : source) {
+    hits += target.Nearest(T.R * p + T.t, max2, nullptr) >= 0;
+  }
+  return static_cast<double>(hits) / static_cast<double>(source.size());
+}
+
+IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
+                   const msgs::Pose2& initial_T_target_source, const IcpOptions& o) {
+  IcpResult result;
+  Rigid T = FromPose(initial_T_target_source);
+  const Cloud2& tp = target.points();
+  if (source.empty() || tp.empty()) {
+    result.T_target_source = initial_T_target_source;
+    return result;
+  }
+  const double max2 = o.max_correspondence_distance_m * o.max_correspondence_distance_m;
+  Cloud2 moved(source.size());
+  std::vector<Pair> pairs;
+  pairs.reserve(source.size());
+  std::vector<double> dt_hist, dr_hist;
+
+  auto match = [&]() {
+    for (std::size_t i = 0; i < source.size(); ++i) moved[i] = T.R * source[i] + T.t;
+    pairs.clear();
+    for (std::size_t i = 0; i < source.size(); ++i) {
+      double d2;
+      const int j = target.tree().Nearest(moved[i], max2, &d2);
+      if (j >= 0) pairs.push_back(Pair{static_cast<int>(i), j, d2});
+    }
+    const auto keep = static_cast<std::size_t>(std::ceil(o.trim_fraction * pairs.size()));
+    if (keep < pairs.size()) {
+      std::nth_element(pairs.begin(), pairs.begin() + keep, pairs.end(),
+                       [](const Pair& a, const Pair& b) { return a.distance2 < b.distance2; });
+      pairs.resize(keep);
+    }
+    return static_cast<int>(pairs.size()) >= o.min_correspondences;
+  };
+
+  result.valid = true;
+  for (int it = 0; it < o.max_iterations; ++it) {
+    if (!match()) {
+      result.valid = false;
+      break;
+    }
+    const Rigid d = o.metric == Metric::kPointToPoint
+                        ? SolvePointToPoint(moved, tp, pairs)
+                        : SolvePointToLine(moved, target, pairs, o.normal_neighbors);
+    T = ComposeLeft(d, T);
+    result.iterations = it + 1;
+    // Size of the change of T (the translation change includes the rotation's effect on t).
+    dt_hist.push_back((d.R * Eigen::Vector2d::Zero() + d.t).norm());
+    dr_hist.push_back(std::abs(d.yaw));
+    const int w = std::max(o.convergence_window, 1);
+    if (static_cast<int>(dt_hist.size()) >= w) {
+      double mt = 0.0, mr = 0.0;
+      for (int k = 0; k < w; ++k) {
+        mt += dt_hist[dt_hist.size() - 1 - k];
+        mr += dr_hist[dr_hist.size() - 1 - k];
+      }
+      if (mt / w < o.convergence_translation_m && mr / w < o.convergence_rotation_rad) {
+        result.converged = true;
+        break;
+      }
+    }
+  }
+  result.T_target_source = ToPose(T);
+  if (!result.valid || !match()) {
+    result.valid = false;
+    return result;
+  }
+
+  // Residuals and covariance on the final correspondences.
+  double sum2 = 0.0, line2 = 0.0;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (const Pair& p : pairs) {
+    const Eigen::Vector2d& n = target.Normal(p.target, o.normal_neighbors);
+    const Eigen::Vector2d e = moved[p.source] - tp[p.target];
+    sum2 += e.squaredNorm();
+    const double r = n.dot(e);
+    line2 += r * r;
+    // d(moved)/d(right perturbation): [R, R S p] with S p = (-p_y, p_x).
+    const Eigen::Vector2d& s = source[p.source];
+    const Eigen::Vector2d rsp = T.R * Eigen::Vector2d(-s.y(), s.x());
+    const Eigen::Vector2d nr = T.R.transpose() * n;
+    const Eigen::Vector3d J(nr.x(), nr.y(), n.dot(rsp));
+    H += J * J.transpose();
+  }
+  const double m = static_cast<double>(pairs.size());
+  result.correspondences = static_cast<int>(pairs.size());
+  result.rmse_m = std::sqrt(sum2 / m);
+  const double sigma2 =
+      std::max(line2 / std::max(m - 3.0, 1.0), o.min_residual_sigma_m * o.min_residual_sigma_m);
+  H.diagonal().array() += o.information_regularization;
+  const Eigen::Matrix3d cov = sigma2 * H.inverse();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) result.covariance[i * 3 + j] = 0.5 * (cov(i, j) + cov(j, i));
+  }
+  result.overlap_ratio =
+      OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
+  return result;
+}
+
+IcpResult AlignIcp(const Cloud2& source, const Cloud2& target,
+                   const msgs::Pose2& initial_T_target_source, const IcpOptions& options) {
+  IcpTarget prepared(target);
+  return AlignIcp(source, prepared, initial_T_target_source, options);
+}
+
+Cloud2 ToCloud(const std::vector<msgs::Point2>& points) {
+  Cloud2 out;
+  out.reserve(points.size());
+  for (const auto& p : points) out.emplace_back(p.x_m, p.y_m);
+  return out;
+}
+
+}  // namespace draco::icp

@@ -1,0 +1,174 @@
+// ICP: kd-tree against brute force, known transforms with noise and outliers, overlap
+// ratio, covariance shape in a corridor.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include "draco/icp/icp.hpp"
+#include "draco/icp/kdtree2.hpp"
+
+namespace draco::icp {
+namespace {
+
+Eigen::Vector2d Apply(const msgs::Pose2& T, const Eigen::Vector2d& p) {
+  return Eigen::Rotation2Dd(T.yaw_rad) * p + Eigen::Vector2d(T.x_m, T.y_m);
+}
+
+msgs::Pose2 Inverse(const msgs::Pose2& T) {
+  const Eigen::Vector2d t = -(Eigen::Rotation2Dd(-T.yaw_rad) * Eigen::Vector2d(T.x_m, T.y_m));
+  return msgs::Pose2{t.x(), t.y(), -T.yaw_rad};
+}
+
+// A marina-like scene: a pier (two walls at right angles) and a row of piles.
+Cloud2 Scene(std::mt19937_64& rng, int n) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Cloud2 pts;
+  for (int i = 0; i < n; ++i) {
+    const double r = u(rng);
+    if (r < 0.4) {
+      pts.emplace_back(2.0 + 18.0 * u(rng), 6.0);
+    } else if (r < 0.7) {
+      pts.emplace_back(20.0, -6.0 + 12.0 * u(rng));
+    } else {
+      const int pile = static_cast<int>(u(rng) * 5);
+      const double a = 2.0 * M_PI * u(rng);
+      pts.emplace_back(5.0 + 3.0 * pile + 0.3 * std::cos(a), -3.0 + 0.3 * std::sin(a));
+    }
+  }
+  return pts;
+}
+
+TEST(KdTree2, MatchesBruteForce) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-10.0, 10.0);
+  Cloud2 pts(500);
+  for (auto& p : pts) p = {u(rng), u(rng)};
+  KdTree2 tree(pts);
+  std::vector<int> knn;
+  for (int q = 0; q < 200; ++q) {
+    const Eigen::Vector2d x(u(rng), u(rng));
+    int best = -1;
+    double best2 = 1e300;
+    std::vector<std::pair<double, int>> all;
+    for (int i = 0; i < 500; ++i) {
+      const double d2 = (pts[i] - x).squaredNorm();
+      all.emplace_back(d2, i);
+      if (d2 < best2) best2 = d2, best = i;
+    }
+    double d2;
+    EXPECT_EQ(tree.Nearest(x, 1e300, &d2), best);
+    EXPECT_DOUBLE_EQ(d2, best2);
+    EXPECT_EQ(tree.Nearest(x, 0.99 * best2, nullptr), -1);
+    std::sort(all.begin(), all.end());
+    tree.KNearest(x, 6, &knn);
+    ASSERT_EQ(knn.size(), 6u);
+    for (int k = 0; k < 6; ++k) EXPECT_EQ(knn[k], all[k].second);
+  }
+}
+
+class IcpRecovers : public ::testing::TestWithParam<Metric> {};
+
+TEST_P(IcpRecovers, KnownTransformWithNoiseAndOutliers) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  std::uniform_real_distribution<double> u(-10.0, 25.0);
+  const msgs::Pose2 truth{1.2, -0.7, 0.15};  // T_target_source
+  for (int trial = 0; trial < 5; ++trial) {
+    const Cloud2 target = Scene(rng, 300);
+    Cloud2 world = Scene(rng, 300);
+    Cloud2 source;
+    const msgs::Pose2 inv = Inverse(truth);
+    for (const auto& p : world)
+      source.push_back(Apply(inv, p) + Eigen::Vector2d(noise(rng), noise(rng)));
+    for (int i = 0; i < 30; ++i) source[i] = {u(rng), u(rng)};  // 10 % outliers
+    IcpOptions o;
+    o.metric = GetParam();
+    // Seeded like dead reckoning would: 0.5 m and 5 deg off.
+    const IcpResult r = AlignIcp(
+        source, target, msgs::Pose2{truth.x_m + 0.4, truth.y_m - 0.3, truth.yaw_rad + 0.09}, o);
+    ASSERT_TRUE(r.valid);
+    EXPECT_TRUE(r.converged);
+    EXPECT_NEAR(r.T_target_source.x_m, truth.x_m, 0.05) << trial;
+    EXPECT_NEAR(r.T_target_source.y_m, truth.y_m, 0.05) << trial;
+    EXPECT_NEAR(r.T_target_source.yaw_rad, truth.yaw_rad, 0.005) << trial;
+    EXPECT_GT(r.overlap_ratio, 0.85);
+    EXPECT_LT(r.rmse_m, 0.1);
+    // Covariance: positive, and consistent with the error (within 5 sigma or 2 cm).
+    EXPECT_GT(r.covariance[0], 0.0);
+    EXPECT_GT(r.covariance[8], 0.0);
+    EXPECT_LT(std::abs(r.T_target_source.yaw_rad - truth.yaw_rad),
+              std::max(5.0 * std::sqrt(r.covariance[8]), 0.002));
+
+    // The inverse problem gives the inverse transform.
+    const IcpResult back = AlignIcp(target, source, Inverse(r.T_target_source), o);
+    EXPECT_NEAR(back.T_target_source.yaw_rad, -truth.yaw_rad, 0.01);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Metrics, IcpRecovers,
+                         ::testing::Values(Metric::kPointToPoint, Metric::kPointToLine));
+
+TEST(OverlapRatio, HandMadeClouds) {
+  Cloud2 target;  // a line y = 0, x in [0, 3], every 0.1 m
+  for (int i = 0; i <= 30; ++i) target.emplace_back(0.1 * i, 0.0);
+  // 10 source points: 7 within 0.5 m of the target after the transform, 3 not.
+  Cloud2 source;
+  for (int i = 0; i < 7; ++i) source.emplace_back(0.4 * i, 0.45);
+  source.emplace_back(0.0, 0.6);
+  source.emplace_back(10.0, 0.0);
+  source.emplace_back(1.5, -0.51);
+  const KdTree2 tree(target);
+  EXPECT_DOUBLE_EQ(OverlapRatio(source, tree, {}, 0.5), 0.7);
+  // Shifted by 0.45 m down, the first 8 are on the line and the last is 0.96 m away.
+  EXPECT_DOUBLE_EQ(OverlapRatio(source, tree, msgs::Pose2{0.0, -0.45, 0.0}, 0.5), 0.8);
+  EXPECT_DOUBLE_EQ(OverlapRatio({}, tree, {}, 0.5), 0.0);
+}
+
+TEST(IcpCovariance, LargerAlongACorridor) {
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  Cloud2 target, source;
+  for (int i = 0; i < 150; ++i) {
+    const double x = 0.2 * i;
+    target.emplace_back(x, 2.0 + noise(rng));
+    target.emplace_back(x, -2.0 + noise(rng));
+    source.emplace_back(x + 0.1, 2.0 + noise(rng));
+    source.emplace_back(x + 0.1, -2.0 + noise(rng));
+  }
+  for (Metric m : {Metric::kPointToPoint, Metric::kPointToLine}) {
+    const IcpResult r = AlignIcp(source, target, {}, IcpOptions{.metric = m});
+    ASSERT_TRUE(r.valid);
+    EXPECT_NEAR(r.T_target_source.y_m, 0.0, 0.01);
+    EXPECT_GT(r.covariance[0], 100.0 * r.covariance[4]);
+  }
+  // A closed room constrains both axes about equally.
+  Cloud2 room;
+  for (int i = 0; i < 100; ++i) {
+    const double s = -5.0 + 0.1 * i;
+    room.emplace_back(s, 5.0);
+    room.emplace_back(s, -5.0);
+    room.emplace_back(5.0, s);
+    room.emplace_back(-5.0, s);
+  }
+  for (auto& p : room) p += Eigen::Vector2d(noise(rng), noise(rng));
+  Cloud2 moved = room;
+  for (auto& p : moved) p += Eigen::Vector2d(noise(rng), noise(rng));
+  const IcpResult r = AlignIcp(moved, room, {});
+  EXPECT_NEAR(r.covariance[0] / r.covariance[4], 1.0, 0.5);
+}
+
+TEST(Icp, TooFewCorrespondencesIsInvalid) {
+  const Cloud2 target{{0, 0}, {1, 0}, {2, 0}};
+  const Cloud2 source{{0, 0.1}, {1, 0.1}, {2, 0.1}};
+  EXPECT_FALSE(AlignIcp(source, target, {}).valid);
+  const Cloud2 far{{100, 100}, {101, 100}, {102, 100}, {103, 100},
+                   {104, 100}, {105, 100}, {106, 100}};
+  EXPECT_FALSE(AlignIcp(far, far, msgs::Pose2{50.0, 0.0, 0.0}).valid);
+  EXPECT_FALSE(AlignIcp({}, target, {}).valid);
+}
+
+}  // namespace
+}  // namespace draco::icp
