@@ -1,0 +1,151 @@
+#include "se2_cost.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace draco::pose_graph::internal {
+
+std::array<double, 9> SqrtInformation(const Matrix3& m) {
+  const double asym = std::abs(m[1] - m[3]) + std::abs(m[2] - m[6]) + std::abs(m[5] - m[7]);
+  const double scale = std::abs(m[0]) + std::abs(m[4]) + std::abs(m[8]);
+  if (!(asym <= 1e-9 * scale)) throw std::invalid_argument("information matrix is not symmetric");
+  // Omega = L^T L with L upper triangular: L = U where Omega = U^T U (Cholesky, upper form).
+  const double u00_sq = m[0];
+  if (!(u00_sq > 0.0)) throw std::invalid_argument("information matrix is not positive definite");
+  const double u00 = std::sqrt(u00_sq);
+  const double u01 = m[1] / u00;
+  const double u02 = m[2] / u00;
+  const double u11_sq = m[4] - u01 * u01;
+  if (!(u11_sq > 0.0)) throw std::invalid_argument("information matrix is not positive definite");
+  const double u11 = std::sqrt(u11_sq);
+  const double u12 = (m[5] - u01 * u02) / u11;
+  const double u22_sq = m[8] - u02 * u02 - u12 * u12;
+  if (!(u22_sq > 0.0)) throw std::invalid_argument("information matrix is not positive definite");
+  return {u00, u01, u02, 0.0, u11, u12, 0.0, 0.0, std::sqrt(u22_sq)};
+}
+
+bool Pose2Manifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  x_plus_delta[0] = x[0] + delta[0];
+  x_plus_delta[1] = x[1] + delta[1];
+  x_plus_delta[2] = NormalizeAngle(x[2] + delta[2]);
+  return true;
+}
+
+bool Pose2Manifold::PlusJacobian(const double*, double* jacobian) const {
+  for (int k = 0; k < 9; ++k) jacobian[k] = (k % 4 == 0) ? 1.0 : 0.0;
+  return true;
+}
+
+bool Pose2Manifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  y_minus_x[0] = y[0] - x[0];
+  y_minus_x[1] = y[1] - x[1];
+  y_minus_x[2] = NormalizeAngle(y[2] - x[2]);
+  return true;
+}
+
+bool Pose2Manifold::MinusJacobian(const double*, double* jacobian) const {
+  for (int k = 0; k < 9; ++k) jacobian[k] = (k % 4 == 0) ? 1.0 : 0.0;
+  return true;
+}
+
+namespace {
+
+// out = L * in for the upper-triangular L (row-major).
+inline void ApplyUpper(const std::array<double, 9>& L, const double* in, double* out) {
+  out[0] = L[0] * in[0] + L[1] * in[1] + L[2] * in[2];
+  out[1] = L[4] * in[1] + L[5] * in[2];
+  out[2] = L[8] * in[2];
+}
+
+// jacobian (3x3 row-major) = L * J.
+inline void WhitenJacobian(const std::array<double, 9>& L, const double* J, double* out) {
+  for (int c = 0; c < 3; ++c) {
+    const double col[3] = {J[c], J[3 + c], J[6 + c]};
+    double w[3];
+    ApplyUpper(L, col, w);
+    out[c] = w[0];
+    out[3 + c] = w[1];
+    out[6 + c] = w[2];
+  }
+}
+
+}  // namespace
+
+BetweenCost::BetweenCost(const Pose2& z, const Matrix3& information, ErrorConvention convention)
+    : zyaw_(z.yaw_rad),
+      frame_yaw_(convention == ErrorConvention::kG2o ? z.yaw_rad : 0.0),
+      sqrt_info_(SqrtInformation(information)) {
+  const double c = std::cos(frame_yaw_), s = std::sin(frame_yaw_);
+  zt_rot_ = {c * z.x_m + s * z.y_m, -s * z.x_m + c * z.y_m};
+}
+
+bool BetweenCost::Evaluate(double const* const* parameters, double* residuals,
+                           double** jacobians) const {
+  const double* a = parameters[0];
+  const double* b = parameters[1];
+  const double phi = a[2] + frame_yaw_;
+  const double c = std::cos(phi), s = std::sin(phi);
+  const double dx = b[0] - a[0], dy = b[1] - a[1];
+  const double e[3] = {c * dx + s * dy - zt_rot_[0], -s * dx + c * dy - zt_rot_[1],
+                       NormalizeAngle(b[2] - a[2] - zyaw_)};
+  ApplyUpper(sqrt_info_, e, residuals);
+  if (jacobians == nullptr) return true;
+  if (jacobians[0] != nullptr) {
+    const double J[9] = {-c, -s, -s * dx + c * dy,  //
+                         s,  -c, -c * dx - s * dy,  //
+                         0,  0,  -1};
+    WhitenJacobian(sqrt_info_, J, jacobians[0]);
+  }
+  if (jacobians[1] != nullptr) {
+    const double J[9] = {c, s, 0, -s, c, 0, 0, 0, 1};
+    WhitenJacobian(sqrt_info_, J, jacobians[1]);
+  }
+  return true;
+}
+
+PriorCost::PriorCost(const Pose2& z, const Matrix3& information, ErrorConvention convention)
+    : z_(z),
+      frame_yaw_(convention == ErrorConvention::kG2o ? z.yaw_rad : 0.0),
+      sqrt_info_(SqrtInformation(information)) {}
+
+bool PriorCost::Evaluate(double const* const* parameters, double* residuals,
+                         double** jacobians) const {
+  const double* a = parameters[0];
+  const double c = std::cos(frame_yaw_), s = std::sin(frame_yaw_);
+  const double dx = a[0] - z_.x_m, dy = a[1] - z_.y_m;
+  const double e[3] = {c * dx + s * dy, -s * dx + c * dy, NormalizeAngle(a[2] - z_.yaw_rad)};
+  ApplyUpper(sqrt_info_, e, residuals);
+  if (jacobians != nullptr && jacobians[0] != nullptr) {
+    const double J[9] = {c, s, 0, -s, c, 0, 0, 0, 1};
+    WhitenJacobian(sqrt_info_, J, jacobians[0]);
+  }
+  return true;
+}
+
+std::array<double, 3> BetweenError(const Pose2& a, const Pose2& b, const Pose2& z,
+                                   ErrorConvention convention) {
+  const double frame_yaw = convention == ErrorConvention::kG2o ? z.yaw_rad : 0.0;
+  const double phi = a.yaw_rad + frame_yaw;
+  const double c = std::cos(phi), s = std::sin(phi);
+  const double cz = std::cos(frame_yaw), sz = std::sin(frame_yaw);
+  const double dx = b.x_m - a.x_m, dy = b.y_m - a.y_m;
+  return {c * dx + s * dy - (cz * z.x_m + sz * z.y_m),
+          -s * dx + c * dy - (-sz * z.x_m + cz * z.y_m),
+          NormalizeAngle(b.yaw_rad - a.yaw_rad - z.yaw_rad)};
+}
+
+std::array<double, 3> PriorError(const Pose2& a, const Pose2& z, ErrorConvention convention) {
+  const double frame_yaw = convention == ErrorConvention::kG2o ? z.yaw_rad : 0.0;
+  const double c = std::cos(frame_yaw), s = std::sin(frame_yaw);
+  const double dx = a.x_m - z.x_m, dy = a.y_m - z.y_m;
+  return {c * dx + s * dy, -s * dx + c * dy, NormalizeAngle(a.yaw_rad - z.yaw_rad)};
+}
+
+double Chi2(const std::array<double, 3>& e, const Matrix3& m) {
+  double sum = 0.0;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) sum += e[r] * m[3 * r + c] * e[c];
+  return sum;
+}
+
+}  // namespace draco::pose_graph::internal

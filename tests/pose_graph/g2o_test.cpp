@@ -1,0 +1,123 @@
+// g2o import/export: round trip, graph conversion, and errors that name file and line.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "draco/pose_graph/g2o.hpp"
+
+namespace draco::pose_graph {
+namespace {
+
+const char* kSmall =
+    "# a comment\n"
+    "VERTEX_SE2 0 0 0 0\n"
+    "VERTEX_SE2 1 1.0 0.1 0.05\n"
+    "\n"
+    "VERTEX_SE2 2 2.0 0.2 3.1\r\n"
+    "FIX 0\n"
+    "EDGE_SE2 0 1 1.0 0.1 0.05 50 1 2 40 3 100\n"
+    "EDGE_SE2 1 2 1.0 0.05 3.05 50 0 0 50 0 100\n"
+    "EDGE_SE2_PRIOR 2 2.0 0.2 3.1 10 0 0 10 0 20\n";
+
+TEST(G2o, ParsesVerticesEdgesPriorsAndFix) {
+  std::istringstream in(kSmall);
+  const G2oGraph g = ParseG2o(in, "small.g2o");
+  ASSERT_EQ(g.vertices.size(), 3u);
+  ASSERT_EQ(g.edges.size(), 2u);
+  ASSERT_EQ(g.priors.size(), 1u);
+  ASSERT_EQ(g.fixed.size(), 1u);
+  EXPECT_DOUBLE_EQ(g.vertices[2].T_world_pose.yaw_rad, 3.1);
+  const Matrix3& info = g.edges[0].information;
+  const Matrix3 expected{50, 1, 2, 1, 40, 3, 2, 3, 100};
+  EXPECT_EQ(info, expected);
+  EXPECT_EQ(g.edges[1].i, 1);
+  EXPECT_EQ(g.edges[1].j, 2);
+}
+
+TEST(G2o, RoundTripIsExact) {
+  std::istringstream in(kSmall);
+  const G2oGraph g = ParseG2o(in, "small.g2o");
+  const auto path = std::filesystem::temp_directory_path() / "draco_pose_graph_roundtrip.g2o";
+  WriteG2o(path, g);
+  const G2oGraph back = ReadG2o(path);
+  std::filesystem::remove(path);
+  ASSERT_EQ(back.vertices.size(), g.vertices.size());
+  ASSERT_EQ(back.edges.size(), g.edges.size());
+  for (std::size_t k = 0; k < g.vertices.size(); ++k) {
+    EXPECT_EQ(back.vertices[k].id, g.vertices[k].id);
+    EXPECT_EQ(back.vertices[k].T_world_pose.x_m, g.vertices[k].T_world_pose.x_m);
+    EXPECT_EQ(back.vertices[k].T_world_pose.yaw_rad, g.vertices[k].T_world_pose.yaw_rad);
+  }
+  for (std::size_t k = 0; k < g.edges.size(); ++k) {
+    EXPECT_EQ(back.edges[k].T_i_j.y_m, g.edges[k].T_i_j.y_m);
+    EXPECT_EQ(back.edges[k].information, g.edges[k].information);
+  }
+  EXPECT_EQ(back.priors[0].information, g.priors[0].information);
+  EXPECT_EQ(back.fixed, g.fixed);
+}
+
+TEST(G2o, PoseGraphRoundTripKeepsFactorsAndEstimates) {
+  std::istringstream in(kSmall);
+  PoseGraph2d graph = ToPoseGraph(ParseG2o(in, "small.g2o"), FactorKind::kScanMatch);
+  EXPECT_EQ(graph.NumPoses(), 3u);
+  EXPECT_EQ(graph.NumFactors(), 3u);
+  EXPECT_EQ(graph.Factors()[0].kind, FactorKind::kScanMatch);
+  ASSERT_TRUE(graph.Optimize().usable);
+  const G2oGraph out = ToG2o(graph);
+  std::ostringstream text;
+  WriteG2o(text, out);
+  std::istringstream again(text.str());
+  PoseGraph2d back = ToPoseGraph(ParseG2o(again, "again.g2o"));
+  for (const PoseId id : graph.PoseIds()) {
+    EXPECT_EQ(back.Pose(id).x_m, graph.Pose(id).x_m);
+    EXPECT_EQ(back.Pose(id).yaw_rad, graph.Pose(id).yaw_rad);
+  }
+  EXPECT_NEAR(back.Chi2(), graph.Chi2(), 1e-12);
+}
+
+TEST(G2o, EdgesWithoutVerticesCreatePosesAtTheOrigin) {
+  std::istringstream in("EDGE_SE2 3 7 1 0 0 1 0 0 1 0 1\n");
+  PoseGraph2d graph = ToPoseGraph(ParseG2o(in, "edges.g2o"));
+  ASSERT_EQ(graph.NumPoses(), 2u);
+  EXPECT_EQ(graph.InitializeFromSpanningTree(3), 1u);
+  EXPECT_DOUBLE_EQ(graph.Pose(7).x_m, 1.0);
+}
+
+std::string ParseError(const std::string& text) {
+  std::istringstream in(text);
+  try {
+    ParseG2o(in, "bad.g2o");
+  } catch (const G2oParseError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(G2o, MalformedLinesNameFileAndLine) {
+  EXPECT_EQ(ParseError("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0\n"),
+            "bad.g2o:2: VERTEX_SE2 needs 4 values, found 3: 'VERTEX_SE2 1 0 0'");
+  EXPECT_EQ(ParseError("\n\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 abc\n"),
+            "bad.g2o:3: value 11 ('abc') is not a finite number: "
+            "'EDGE_SE2 0 1 1 0 0 1 0 0 1 0 abc'");
+  EXPECT_EQ(ParseError("VERTEX_SE2 1.5 0 0 0\n"),
+            "bad.g2o:1: value 1 ('1.5') is not an integer id: 'VERTEX_SE2 1.5 0 0 0'");
+  EXPECT_EQ(ParseError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"),
+            "bad.g2o:1: unsupported tag 'VERTEX_SE3:QUAT' (expected VERTEX_SE2, EDGE_SE2, "
+            "EDGE_SE2_PRIOR, FIX): 'VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1'");
+  EXPECT_EQ(ParseError("VERTEX_SE2 0 nan 0 0\n"),
+            "bad.g2o:1: value 2 ('nan') is not a finite number: 'VERTEX_SE2 0 nan 0 0'");
+  std::istringstream in("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0\n");
+  try {
+    ParseG2o(in, "x.g2o");
+    FAIL();
+  } catch (const G2oParseError& e) {
+    EXPECT_EQ(e.line(), 2);
+    EXPECT_EQ(e.source(), "x.g2o");
+  }
+  EXPECT_THROW(ReadG2o("/nonexistent/file.g2o"), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace draco::pose_graph

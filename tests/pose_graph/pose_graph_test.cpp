@@ -1,0 +1,345 @@
+// SE(2) pose graph: residual Jacobians, manifold, solves on synthetic graphs, robust losses,
+// incremental updates and marginal covariances.
+#include <ceres/gradient_checker.h>
+#include <ceres/manifold_test_utils.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "draco/pose_graph/pose_graph_2d.hpp"
+#include "se2_cost.hpp"
+#include "synthetic.hpp"
+
+// Ceres' manifold invariant macro names its matchers unqualified, so it runs inside ceres.
+namespace ceres {
+inline void ExpectManifoldInvariantsHold(const Manifold& manifold, const Vector& x,
+                                         const Vector& delta, const Vector& y, double tolerance) {
+  EXPECT_THAT_MANIFOLD_INVARIANTS_HOLD(manifold, x, delta, y, tolerance);
+}
+}  // namespace ceres
+
+namespace draco::pose_graph {
+namespace {
+
+using testing::MakeGridWalk;
+using testing::SyntheticGraph;
+using testing::SyntheticOptions;
+
+// A full (anisotropic, correlated) information matrix, so the whitening is exercised.
+const Matrix3 kInformation = {40.0, 5.0, -2.0, 5.0, 25.0, 3.0, -2.0, 3.0, 300.0};
+
+double PositionRmse(const PoseGraph2d& graph, const std::vector<Pose2>& truth) {
+  double sum = 0.0;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const Pose2 p = graph.Pose(static_cast<PoseId>(k));
+    sum += std::pow(p.x_m - truth[k].x_m, 2) + std::pow(p.y_m - truth[k].y_m, 2);
+  }
+  return std::sqrt(sum / static_cast<double>(truth.size()));
+}
+
+// Poses at odometry dead reckoning, prior on pose 0 at the truth, all edges as factors.
+PoseGraph2d BuildGraph(const SyntheticGraph& g, bool with_loops = true, RobustLoss loop_loss = {}) {
+  PoseGraph2d graph;
+  Pose2 dr = g.truth.front();
+  graph.AddPose(0, dr);
+  for (const auto& e : g.edges) {
+    if (e.loop) continue;
+    dr = Compose(dr, e.T_i_j);
+    graph.AddPose(e.j, dr);
+  }
+  graph.AddPrior(0, g.truth.front(), InformationFromSigmas(0.01, 0.01, 0.001));
+  for (const auto& e : g.edges) {
+    if (e.loop && !with_loops) continue;
+    graph.AddBetween(e.i, e.j, e.T_i_j, g.Information(),
+                     e.loop ? FactorKind::kLoop : FactorKind::kOdometry,
+                     e.loop ? loop_loss : RobustLoss{});
+  }
+  return graph;
+}
+
+TEST(Se2Cost, BetweenJacobiansMatchNumericDifferentiation) {
+  internal::Pose2Manifold manifold;
+  const std::vector<const ceres::Manifold*> manifolds{&manifold, &manifold};
+  // The checker differentiates with Ridders' method; its default first step (1 % of the
+  // value) is large enough to cross the angle wrap near yaw = +-pi, so start smaller.
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;
+  for (const auto convention : {ErrorConvention::kG2o, ErrorConvention::kCeresExample}) {
+    const internal::BetweenCost cost({0.7, -0.3, 2.9}, kInformation, convention);
+    ceres::GradientChecker checker(&cost, &manifolds, numeric);
+    // Includes yaws near +-pi, where the angle error wraps.
+    const double poses[][6] = {{0.0, 0.0, 0.0, 1.0, 0.5, 0.3},
+                               {1.2, -3.4, 3.1, 2.0, -1.0, -3.0},
+                               {-5.0, 2.0, -1.5, -4.2, 2.7, 1.4}};
+    for (const auto& p : poses) {
+      const double* params[2] = {p, p + 3};
+      ceres::GradientChecker::ProbeResults results;
+      EXPECT_TRUE(checker.Probe(params, 1e-7, &results)) << results.error_log;
+    }
+  }
+}
+
+TEST(Se2Cost, PriorJacobianMatchesNumericDifferentiation) {
+  internal::Pose2Manifold manifold;
+  const std::vector<const ceres::Manifold*> manifolds{&manifold};
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;
+  for (const auto convention : {ErrorConvention::kG2o, ErrorConvention::kCeresExample}) {
+    const internal::PriorCost cost({1.0, 2.0, -2.5}, kInformation, convention);
+    ceres::GradientChecker checker(&cost, &manifolds, numeric);
+    const double x[3] = {1.3, 1.5, 3.0};
+    const double* params[1] = {x};
+    ceres::GradientChecker::ProbeResults results;
+    EXPECT_TRUE(checker.Probe(params, 1e-7, &results)) << results.error_log;
+  }
+}
+
+TEST(Se2Cost, WhitenedResidualSquaredIsChi2) {
+  const Pose2 a{0.3, -0.2, 0.4}, b{1.5, 0.9, 1.1}, z{1.0, 0.5, 0.6};
+  const internal::BetweenCost cost(z, kInformation);
+  const double pa[3] = {a.x_m, a.y_m, a.yaw_rad}, pb[3] = {b.x_m, b.y_m, b.yaw_rad};
+  const double* params[2] = {pa, pb};
+  double r[3];
+  ASSERT_TRUE(cost.Evaluate(params, r, nullptr));
+  const double chi2 = internal::Chi2(internal::BetweenError(a, b, z), kInformation);
+  EXPECT_NEAR(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], chi2, 1e-12);
+  // g2o's error is Z^-1 * (A^-1 * B) written out.
+  const Pose2 E = Compose(Inverse(z), Between(a, b));
+  const auto e = internal::BetweenError(a, b, z);
+  EXPECT_NEAR(e[0], E.x_m, 1e-12);
+  EXPECT_NEAR(e[1], E.y_m, 1e-12);
+  EXPECT_NEAR(e[2], E.yaw_rad, 1e-12);
+  // Ceres' example keeps the translation error in frame i: A^-1 * B minus Z's translation.
+  const Pose2 AB = Between(a, b);
+  const auto ec = internal::BetweenError(a, b, z, ErrorConvention::kCeresExample);
+  EXPECT_NEAR(ec[0], AB.x_m - z.x_m, 1e-12);
+  EXPECT_NEAR(ec[1], AB.y_m - z.y_m, 1e-12);
+  EXPECT_NEAR(ec[2], e[2], 1e-12);
+}
+
+TEST(Se2Cost, RejectsInformationThatIsNotPositiveDefinite) {
+  EXPECT_THROW(internal::SqrtInformation(Diagonal3(1.0, 0.0, 1.0)), std::invalid_argument);
+  EXPECT_THROW(internal::SqrtInformation({1, 2, 0, 0, 1, 0, 0, 0, 1}), std::invalid_argument);
+  PoseGraph2d graph;
+  graph.AddPose(0, {});
+  graph.AddPose(1, {});
+  EXPECT_THROW(graph.AddBetween(0, 1, {}, Diagonal3(1.0, -1.0, 1.0)), std::invalid_argument);
+  EXPECT_THROW(graph.AddBetween(0, 7, {}, Diagonal3(1.0, 1.0, 1.0)), std::out_of_range);
+  EXPECT_THROW(graph.AddPose(1, {}), std::invalid_argument);
+}
+
+TEST(Pose2Manifold, InvariantsHold) {
+  internal::Pose2Manifold manifold;
+  const ceres::Vector x = Eigen::Vector3d(1.0, -2.0, 3.0);  // near +pi: Plus wraps
+  const ceres::Vector delta = Eigen::Vector3d(0.1, 0.2, 0.4);
+  const ceres::Vector y = Eigen::Vector3d(-0.5, 0.7, -3.0);
+  ceres::ExpectManifoldInvariantsHold(manifold, x, delta, y, 1e-10);
+  double out[3];
+  manifold.Plus(x.data(), delta.data(), out);
+  EXPECT_NEAR(out[2], 3.4 - 2 * std::numbers::pi, 1e-12);
+}
+
+TEST(Pose2, ComposeInverseBetween) {
+  const Pose2 a{1.0, 2.0, 0.5}, b{-0.3, 0.8, -2.9};
+  const Pose2 ab = Between(a, b);
+  const Pose2 b2 = Compose(a, ab);
+  EXPECT_NEAR(b2.x_m, b.x_m, 1e-12);
+  EXPECT_NEAR(b2.y_m, b.y_m, 1e-12);
+  EXPECT_NEAR(b2.yaw_rad, b.yaw_rad, 1e-12);
+  const Pose2 id = Compose(a, Inverse(a));
+  EXPECT_NEAR(id.x_m, 0.0, 1e-12);
+  EXPECT_NEAR(id.y_m, 0.0, 1e-12);
+  EXPECT_NEAR(id.yaw_rad, 0.0, 1e-12);
+  EXPECT_NEAR(NormalizeAngle(3 * std::numbers::pi), -std::numbers::pi, 1e-12);
+}
+
+TEST(PoseGraph2d, RecoversKnownPosesOnNoisySyntheticGraph) {
+  const SyntheticGraph g = MakeGridWalk({.num_poses = 300, .seed = 7});
+  int loops = 0;
+  for (const auto& e : g.edges) loops += e.loop ? 1 : 0;
+  ASSERT_GT(loops, 20);
+  PoseGraph2d graph = BuildGraph(g);
+  const double dr_rmse = PositionRmse(graph, g.truth);
+  const SolveSummary s = graph.Optimize();
+  ASSERT_TRUE(s.usable) << s.report;
+  EXPECT_TRUE(s.converged) << s.report;
+  EXPECT_LT(s.final_chi2, s.initial_chi2);
+  EXPECT_NEAR(s.final_chi2, graph.Chi2(), 1e-9);
+  const double rmse = PositionRmse(graph, g.truth);
+  EXPECT_LT(rmse, 0.25 * dr_rmse) << "dead reckoning " << dr_rmse << " m";
+  EXPECT_LT(rmse, 0.2);
+  // At the optimum chi2 is about the degrees of freedom (3 per factor minus 3 per pose).
+  const double dof = 3.0 * (graph.NumFactors() - graph.NumPoses());
+  EXPECT_GT(s.final_chi2, 0.5 * dof);
+  EXPECT_LT(s.final_chi2, 1.5 * dof);
+  for (std::size_t k = 0; k < g.truth.size(); ++k) {
+    EXPECT_LT(std::abs(NormalizeAngle(graph.Pose(k).yaw_rad - g.truth[k].yaw_rad)), 0.1);
+  }
+}
+
+TEST(PoseGraph2d, NoiselessGraphIsSolvedExactlyWithoutPriorByFixingFirstPose) {
+  SyntheticGraph g = MakeGridWalk({.num_poses = 60, .sigma_xy_m = 1e-9, .sigma_yaw_rad = 1e-9});
+  PoseGraph2d graph;
+  for (std::size_t k = 0; k < g.truth.size(); ++k) graph.AddPose(k, {});
+  graph.SetPose(0, g.truth[0]);
+  for (const auto& e : g.edges) graph.AddBetween(e.i, e.j, e.T_i_j, Diagonal3(1, 1, 10));
+  EXPECT_EQ(graph.InitializeFromSpanningTree(), g.truth.size() - 1);
+  graph.SetPose(5, {3.0, -2.0, 1.0});  // perturb a pose; the first one stays the gauge
+  const SolveSummary s = graph.Optimize();
+  ASSERT_TRUE(s.usable);
+  EXPECT_EQ(s.variable_poses, static_cast<int>(g.truth.size()) - 1);
+  EXPECT_LT(PositionRmse(graph, g.truth), 1e-6);
+  EXPECT_LT(s.final_chi2, 1e-10);
+}
+
+TEST(PoseGraph2d, RobustLossDownWeightsAnInjectedOutlierLoop) {
+  SyntheticGraph g = MakeGridWalk({.num_poses = 200, .seed = 3});
+  // A wrong loop closure: poses 40 and 170 are claimed to be 0.5 m apart.
+  g.edges.push_back({40, 170, {0.5, 0.0, 0.3}, true});
+  const std::size_t outlier = g.edges.size() - 1;
+
+  PoseGraph2d plain = BuildGraph(g);
+  PoseGraph2d robust = BuildGraph(g, true, {LossKind::kCauchy, 1.0});
+  PoseGraph2d huber = BuildGraph(g, true, {LossKind::kHuber, 1.0});
+  ASSERT_TRUE(plain.Optimize().usable);
+  ASSERT_TRUE(robust.Optimize().usable);
+  ASSERT_TRUE(huber.Optimize().usable);
+  const double plain_rmse = PositionRmse(plain, g.truth);
+  const double robust_rmse = PositionRmse(robust, g.truth);
+  const double huber_rmse = PositionRmse(huber, g.truth);
+  EXPECT_LT(robust_rmse, 0.25 * plain_rmse) << plain_rmse;
+  EXPECT_LT(robust_rmse, 0.2);
+  EXPECT_LT(huber_rmse, plain_rmse);
+  // The outlier is left unexplained by the robust solution: its chi2 stays huge (the factor
+  // index is the edge index + 1, after the prior).
+  EXPECT_GT(robust.FactorChi2(outlier + 1), 1000.0);
+  // and the inliers are fitted as if it were absent: their chi2 is near its expectation
+  // (3 per factor minus 3 per pose) with the robust loss, far above it without.
+  auto inlier_chi2 = [&](const PoseGraph2d& graph) {
+    return graph.Chi2() - graph.FactorChi2(outlier + 1);
+  };
+  SyntheticGraph clean_edges = g;
+  clean_edges.edges.pop_back();
+  PoseGraph2d clean = BuildGraph(clean_edges);
+  ASSERT_TRUE(clean.Optimize().usable);
+  EXPECT_LT(inlier_chi2(robust), 2.0 * clean.Chi2());  // Cauchy also softens inlier loops
+  EXPECT_GT(inlier_chi2(plain), 5.0 * inlier_chi2(robust));
+}
+
+TEST(PoseGraph2d, IncrementalUpdatesMatchABatchSolve) {
+  const SyntheticGraph g = MakeGridWalk({.num_poses = 250, .seed = 11});
+  PoseGraph2d batch = BuildGraph(g);
+  ASSERT_TRUE(batch.Optimize().usable);
+
+  PoseGraph2d inc;
+  inc.AddPose(0, g.truth[0]);
+  inc.AddPrior(0, g.truth[0], InformationFromSigmas(0.01, 0.01, 0.001));
+  const IncrementalOptions options{.window_size = 15};
+  int full = 0, local = 0;
+  std::size_t e = 0;
+  for (int k = 1; k < static_cast<int>(g.truth.size()); ++k) {
+    // Odometry edge to k, then any loops ending at k.
+    ASSERT_EQ(g.edges[e].j, k);
+    inc.AddPose(k, Compose(inc.Pose(k - 1), g.edges[e].T_i_j));
+    for (; e < g.edges.size() && g.edges[e].j == k; ++e) {
+      inc.AddBetween(g.edges[e].i, k, g.edges[e].T_i_j, g.Information(),
+                     g.edges[e].loop ? FactorKind::kLoop : FactorKind::kOdometry);
+    }
+    const SolveSummary s = inc.Update(options);
+    ASSERT_TRUE(s.usable) << s.report;
+    (s.full ? full : local) += 1;
+  }
+  EXPECT_GT(local, 0);
+  EXPECT_GT(full, 0);
+  // Finish with a full solve, then both reach the same optimum.
+  inc.Optimize();
+  EXPECT_NEAR(inc.Chi2(), batch.Chi2(), 1e-6 * batch.Chi2());
+  for (std::size_t k = 0; k < g.truth.size(); ++k) {
+    // Both stop at Ceres' relative function tolerance, not at the exact optimum.
+    EXPECT_NEAR(inc.Pose(k).x_m, batch.Pose(k).x_m, 1e-3);
+    EXPECT_NEAR(inc.Pose(k).y_m, batch.Pose(k).y_m, 1e-3);
+  }
+}
+
+TEST(PoseGraph2d, WindowSolveOnlyMovesTheNewestPoses) {
+  const SyntheticGraph g =
+      MakeGridWalk({.num_poses = 40, .loop_radius_m = -1.0, .seed = 5});  // no loops
+  PoseGraph2d graph = BuildGraph(g);
+  graph.SetPose(39, {100.0, 100.0, 0.0});
+  graph.SetPose(10, {-50.0, 0.0, 0.0});
+  const SolveSummary s = graph.OptimizeWindow(5);
+  ASSERT_TRUE(s.usable) << s.report;
+  EXPECT_FALSE(s.full);
+  EXPECT_EQ(s.variable_poses, 5);
+  EXPECT_LT(std::abs(graph.Pose(39).x_m - g.truth[39].x_m), 1.0);
+  EXPECT_EQ(graph.Pose(10).x_m, -50.0);  // outside the window: untouched
+}
+
+// Two poses, a prior on the first and one between factor: the relative pose is determined by
+// the measurement alone, so its covariance (right perturbation, frame of pose 1) is exactly
+// the measurement covariance Omega^-1, whatever the prior and the measured rotation.
+TEST(PoseGraph2d, RelativeCovarianceOfTwoPoseGraphIsTheMeasurementCovariance) {
+  PoseGraph2d graph;
+  const Pose2 z{2.0, 1.0, 0.8};
+  graph.AddPose(0, {1.0, -1.0, 0.3});
+  graph.AddPose(1, Compose({1.0, -1.0, 0.3}, z));
+  graph.AddPrior(0, {1.0, -1.0, 0.3}, InformationFromSigmas(0.5, 0.3, 0.1));
+  // Omega = diag(4, 16, 100) -> Sigma = diag(0.25, 0.0625, 0.01), plus a correlation term:
+  // Omega = [[4, 1, 0], [1, 16, 0], [0, 0, 100]], Sigma_xy block = 1/63 * [[16, -1], [-1, 4]].
+  const Matrix3 omega = {4, 1, 0, 1, 16, 0, 0, 0, 100};
+  graph.AddBetween(0, 1, z, omega);
+  const Matrix3 cov = graph.RelativeCovariance(0, 1);
+  const Matrix3 expected = {16.0 / 63, -1.0 / 63, 0, -1.0 / 63, 4.0 / 63, 0, 0, 0, 0.01};
+  for (int k = 0; k < 9; ++k) EXPECT_NEAR(cov[k], expected[k], 1e-9) << k;
+
+  // Absolute marginal of pose 0 is the prior's covariance; g2o's prior error is in the
+  // measured pose's frame, so in the world frame it is R(0.3) diag(0.25, 0.09) R(0.3)^T.
+  const Matrix3 c0 = graph.MarginalCovariance(0);
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  EXPECT_NEAR(c0[0], 0.25 * c * c + 0.09 * s * s, 1e-9);
+  EXPECT_NEAR(c0[1], (0.25 - 0.09) * c * s, 1e-9);
+  EXPECT_NEAR(c0[4], 0.25 * s * s + 0.09 * c * c, 1e-9);
+  EXPECT_NEAR(c0[8], 0.01, 1e-9);
+  // Absolute marginal of pose 1 = J0 Sigma0 J0^T + R Sigma_z R^T (first-order propagation),
+  // checked through its yaw term: 0.01 + 0.01.
+  const Matrix3 c1 = graph.MarginalCovariance(1);
+  EXPECT_NEAR(c1[8], 0.02, 1e-9);
+}
+
+// Without a prior the first pose is the gauge: its covariance is zero and the relative
+// covariance along a chain accumulates the measurement covariances.
+TEST(PoseGraph2d, RelativeCovarianceAlongAChainAccumulates) {
+  PoseGraph2d graph;
+  graph.AddPose(0, {});
+  graph.AddPose(1, {1.0, 0.0, 0.0});
+  graph.AddPose(2, {2.0, 0.0, 0.0});
+  const Matrix3 omega = InformationFromSigmas(0.1, 0.1, 0.01);
+  graph.AddBetween(0, 1, {1.0, 0.0, 0.0}, omega);
+  graph.AddBetween(1, 2, {1.0, 0.0, 0.0}, omega);
+  const std::vector<std::pair<PoseId, PoseId>> pairs{{0, 1}, {1, 2}, {0, 2}};
+  const auto covs = graph.RelativeCovariances(pairs);
+  EXPECT_NEAR(covs[0][0], 0.01, 1e-9);
+  EXPECT_NEAR(covs[1][8], 1e-4, 1e-12);
+  // 0 -> 2: x adds (0.01 + 0.01); y adds the two y variances plus the lever arm of the first
+  // yaw error over 1 m: 0.01 + 0.01 + 1^2 * 1e-4; yaw adds 2e-4.
+  EXPECT_NEAR(covs[2][0], 0.02, 1e-9);
+  EXPECT_NEAR(covs[2][4], 0.0201, 1e-9);
+  EXPECT_NEAR(covs[2][8], 2e-4, 1e-12);
+  EXPECT_NEAR(covs[2][5], 1e-4, 1e-12);  // y-yaw correlation through that lever arm
+}
+
+TEST(PoseGraph2d, CovarianceOfAnUnconstrainedPoseThrows) {
+  PoseGraph2d graph;
+  for (PoseId id = 0; id < 5; ++id) graph.AddPose(id, {static_cast<double>(id), 0.0, 0.0});
+  graph.AddBetween(0, 1, {1.0, 0.0, 0.0}, Diagonal3(1, 1, 1));
+  graph.AddBetween(2, 3, {1.0, 0.0, 0.0}, Diagonal3(1, 1, 1));       // not linked to the gauge
+  EXPECT_THROW(graph.RelativeCovariance(0, 4), std::runtime_error);  // no factor at all
+  EXPECT_THROW(graph.MarginalCovariance(4), std::runtime_error);
+  EXPECT_THROW(graph.RelativeCovariance(0, 2), std::runtime_error);  // rank-deficient
+}
+
+}  // namespace
+}  // namespace draco::pose_graph
