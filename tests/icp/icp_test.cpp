@@ -7,8 +7,11 @@
 
 #include <Eigen/Geometry>
 
+#include "draco/graph/testing/harness.hpp"
 #include "draco/icp/icp.hpp"
 #include "draco/icp/kdtree2.hpp"
+#include "draco/icp/sequential.hpp"
+#include "draco/navigation/se2.hpp"
 
 namespace draco::icp {
 namespace {
@@ -168,6 +171,105 @@ TEST(Icp, TooFewCorrespondencesIsInvalid) {
                    {104, 100}, {105, 100}, {106, 100}};
   EXPECT_FALSE(AlignIcp(far, far, msgs::Pose2{50.0, 0.0, 0.0}).valid);
   EXPECT_FALSE(AlignIcp({}, target, {}).valid);
+}
+
+// A robot drives through a static scene; dead reckoning is biased by 0.3 m and 2 deg per
+// keyframe. Scan matching recovers the true increments.
+struct Drive {
+  std::vector<msgs::Keyframe> keyframes;
+  std::vector<msgs::Pose2> truth;
+};
+
+Drive MakeDrive(int num_points, double bias_m, double bias_rad) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  Cloud2 world;  // walls on both sides and piles
+  for (int i = 0; i < 3000; ++i) {
+    const double r = u(rng);
+    if (r < 0.4) {
+      world.emplace_back(-5.0 + 45.0 * u(rng), 7.0);
+    } else if (r < 0.6) {
+      world.emplace_back(-5.0 + 45.0 * u(rng), -8.0);
+    } else {
+      const int pile = static_cast<int>(u(rng) * 12);
+      const double a = 2.0 * M_PI * u(rng);
+      world.emplace_back(3.0 * pile + 0.3 * std::cos(a), (pile % 3) - 2.0 + 0.3 * std::sin(a));
+    }
+  }
+  Drive d;
+  msgs::Pose2 dr{0.0, 0.0, 0.0};
+  for (int k = 0; k < 6; ++k) {
+    const msgs::Pose2 truth{3.5 * k, 0.3 * std::sin(0.5 * k), 0.05 * std::sin(0.7 * k)};
+    msgs::Keyframe kf;
+    kf.index = k;
+    kf.time_s = 10.0 * k;
+    if (k > 0) {
+      const msgs::Pose2 inc = se2::Between(d.truth.back(), truth);
+      kf.T_prevkf_kf = msgs::Pose2{inc.x_m + bias_m, inc.y_m, inc.yaw_rad + bias_rad};
+      kf.covariance_prevkf_kf = {0.04, 0, 0, 0, 0.04, 0, 0, 0, 4e-4};
+      dr = se2::Compose(dr, kf.T_prevkf_kf);
+    }
+    kf.T_odom_body = dr;
+    // Visible: within 20 m and 60 deg of the heading; num_points of them.
+    const msgs::Pose2 inv = se2::Inverse(truth);
+    for (const auto& w : world) {
+      const msgs::Point2 b = se2::Apply(inv, msgs::Point2{w.x(), w.y()});
+      if (std::hypot(b.x_m, b.y_m) < 20.0 && std::abs(std::atan2(b.y_m, b.x_m)) < 1.05) {
+        kf.points_body.push_back({b.x_m + noise(rng), b.y_m + noise(rng)});
+      }
+      if (static_cast<int>(kf.points_body.size()) >= num_points) break;
+    }
+    d.truth.push_back(truth);
+    d.keyframes.push_back(kf);
+  }
+  return d;
+}
+
+TEST(SequentialScanMatcher, CorrectsBiasedDeadReckoning) {
+  const Drive d = MakeDrive(300, 0.3, 0.035);
+  SequentialScanMatcher m;
+  EXPECT_FALSE(m.AddKeyframe(d.keyframes[0]));
+  for (int k = 1; k < 6; ++k) {
+    const auto f = m.AddKeyframe(d.keyframes[k]);
+    ASSERT_TRUE(f);
+    EXPECT_EQ(f->from_index, k - 1);
+    EXPECT_EQ(f->to_index, k);
+    EXPECT_TRUE(f->scan_matched);
+    const msgs::Pose2 inc = se2::Between(d.truth[k - 1], d.truth[k]);
+    EXPECT_NEAR(f->T_from_to.x_m, inc.x_m, 0.05) << k;
+    EXPECT_NEAR(f->T_from_to.y_m, inc.y_m, 0.05) << k;
+    EXPECT_NEAR(f->T_from_to.yaw_rad, inc.yaw_rad, 0.005) << k;
+    EXPECT_LT(f->covariance[0], 0.04);  // from the match, not dead reckoning's
+  }
+  EXPECT_NEAR(m.latest_pose().x_m, d.truth.back().x_m, 0.15);
+}
+
+TEST(SequentialScanMatcher, FallsBackToDeadReckoning) {
+  // Too few points.
+  const Drive sparse = MakeDrive(30, 0.3, 0.035);
+  SequentialScanMatcher m;
+  m.AddKeyframe(sparse.keyframes[0]);
+  const auto f = m.AddKeyframe(sparse.keyframes[1]);
+  EXPECT_FALSE(f->scan_matched);
+  EXPECT_DOUBLE_EQ(f->T_from_to.x_m, sparse.keyframes[1].T_prevkf_kf.x_m);
+  EXPECT_DOUBLE_EQ(f->covariance[0], 0.04);
+  // A match further from the seed than the gate.
+  const Drive d = MakeDrive(300, 0.3, 0.0);
+  SequentialScanMatcher gated(SequentialOptions{.max_translation_from_seed_m = 0.1});
+  gated.AddKeyframe(d.keyframes[0]);
+  EXPECT_FALSE(gated.AddKeyframe(d.keyframes[1])->scan_matched);
+}
+
+TEST(IcpOdometryComponent, EmitsOneFactorPerKeyframeAfterTheFirst) {
+  const Drive d = MakeDrive(300, 0.3, 0.035);
+  graph::testing::Harness h("slam.IcpOdometry", "num_previous_keyframes: 3\n");
+  for (const auto& kf : d.keyframes) h.Feed("keyframe", graph::Seconds(kf.time_s), kf);
+  h.RunUntilIdle();
+  const auto out = h.Outputs<msgs::SequentialFactor>("factor");
+  ASSERT_EQ(out.size(), 5u);
+  for (const auto& f : out) EXPECT_TRUE(f->scan_matched);
+  EXPECT_NEAR(out[0].stamp.Seconds(), 10.0, 1e-9);
 }
 
 }  // namespace
