@@ -181,7 +181,7 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
         i = next_robot++;
       }
       try {
-        draco::sim::SimulateRobot(world, mission, i, sonar, *runs[i], &progress[i]);
+        draco::sim::SimulateRobot(world, mission, i, &sonar, *runs[i], &progress[i]);
         sinks[i]->Close();
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex);

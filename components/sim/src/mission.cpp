@@ -112,6 +112,7 @@ class MissionParser {
     s.gain = m.Double("gain", s.gain);
     Positive(m, "gain", s.gain);
     s.object_gain = m.Double("object_gain", s.object_gain);
+    s.seabed_gain = m.Double("seabed_gain", s.seabed_gain);
   }
 
   void ParseNavigation(const YAML::Node& node) {
@@ -140,7 +141,8 @@ class MissionParser {
     if (m.Has("ahrs")) {
       yaml::Map a(file_, m.Get("ahrs"), "navigation.ahrs",
                   {"rate_hz", "yaw_drift_sigma_deg", "yaw_drift_tau_s", "yaw_noise_sigma_deg",
-                   "roll_pitch_noise_sigma_deg", "yaw_rate_noise_sigma_radps"});
+                   "roll_pitch_noise_sigma_deg", "yaw_rate_noise_sigma_radps", "steel_anomaly_deg",
+                   "steel_anomaly_length_m"});
       n.ahrs.rate_hz = a.Double("rate_hz", n.ahrs.rate_hz);
       Positive(a, "rate_hz", n.ahrs.rate_hz);
       n.ahrs.yaw_drift_sigma_rad =
@@ -153,6 +155,11 @@ class MissionParser {
           a.Double("roll_pitch_noise_sigma_deg", n.ahrs.roll_pitch_noise_sigma_rad / kDeg) * kDeg;
       n.ahrs.yaw_rate_noise_sigma_radps =
           a.Double("yaw_rate_noise_sigma_radps", n.ahrs.yaw_rate_noise_sigma_radps);
+      n.ahrs.steel_anomaly_rad =
+          a.Double("steel_anomaly_deg", n.ahrs.steel_anomaly_rad / kDeg) * kDeg;
+      n.ahrs.steel_anomaly_length_m =
+          a.Double("steel_anomaly_length_m", n.ahrs.steel_anomaly_length_m);
+      Positive(a, "steel_anomaly_length_m", n.ahrs.steel_anomaly_length_m);
     }
     if (m.Has("depth")) {
       yaml::Map d(file_, m.Get("depth"), "navigation.depth", {"rate_hz", "noise_sigma_m"});

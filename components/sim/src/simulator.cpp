@@ -1,5 +1,6 @@
 #include "draco/sim/simulator.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -40,6 +41,32 @@ NavigationSensors::NavigationSensors(const NavigationOptions& options, const Wor
   dvl_scale_ = 1.0 + options_.dvl.scale_sigma * rng_.Normal();
   dvl_misalignment_rad_ = options_.dvl.misalignment_sigma_rad * rng_.Normal();
   yaw_drift_rad_ = options_.ahrs.yaw_drift_sigma_rad * rng_.Normal();
+  const int steel = world_.FindMaterial("steel");
+  if (steel >= 0 && options_.ahrs.steel_anomaly_rad > 0.0) {
+    for (const auto& p : world_.primitives) {
+      if (p.material != steel) continue;
+      // Sign and strength fixed per object by its position (the same for every robot).
+      const std::uint64_t h =
+          Mix64(static_cast<std::uint64_t>(std::llround(p.center_m.x * 100)) * 0x9E3779B1ULL ^
+                static_cast<std::uint64_t>(std::llround(p.center_m.y * 100)));
+      const double u = static_cast<double>(h >> 11) * 0x1.0p-53;
+      const double amplitude =
+          options_.ahrs.steel_anomaly_rad * (u < 0.5 ? -1.0 : 1.0) * (0.5 + std::abs(u - 0.5));
+      anomalies_.push_back({p.center_m.x, p.center_m.y, amplitude});
+    }
+  }
+}
+
+double NavigationSensors::HeadingAnomaly(double x_m, double y_m) const {
+  const double length = options_.ahrs.steel_anomaly_length_m;
+  const double reach2 = 9.0 * length * length;
+  double sum = 0.0;
+  for (const auto& a : anomalies_) {
+    const double d2 = (a.x_m - x_m) * (a.x_m - x_m) + (a.y_m - y_m) * (a.y_m - y_m);
+    if (d2 < reach2) sum += a.amplitude_rad * std::exp(-d2 / (length * length));
+  }
+  const double cap = options_.ahrs.steel_anomaly_rad * 1.5;
+  return std::clamp(sum, -cap, cap);
 }
 
 msgs::DvlVelocity NavigationSensors::Dvl(const TrajectorySample& truth) {
@@ -78,7 +105,8 @@ msgs::Ahrs NavigationSensors::Ahrs(const TrajectorySample& truth) {
   a.time_s = truth.time_s;
   a.roll_rad = truth.roll_rad + o.roll_pitch_noise_sigma_rad * rng_.Normal();
   a.pitch_rad = truth.pitch_rad + o.roll_pitch_noise_sigma_rad * rng_.Normal();
-  a.yaw_rad = WrapAngle(truth.yaw_rad + yaw_drift_rad_ + o.yaw_noise_sigma_rad * rng_.Normal());
+  a.yaw_rad = WrapAngle(truth.yaw_rad + yaw_drift_rad_ + HeadingAnomaly(truth.x_m, truth.y_m) +
+                        o.yaw_noise_sigma_rad * rng_.Normal());
   a.yaw_rate_radps = truth.yaw_rate_radps + o.yaw_rate_noise_sigma_radps * rng_.Normal();
   return a;
 }
@@ -91,7 +119,7 @@ msgs::Depth NavigationSensors::Depth(const TrajectorySample& truth) {
 }
 
 RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robot_index,
-                            const SonarModel& sonar, RobotSink& sink, RobotProgress* progress) {
+                            const SonarModel* sonar, RobotSink& sink, RobotProgress* progress) {
   const RobotSpec& robot = mission.robots.at(static_cast<std::size_t>(robot_index));
   const Trajectory traj = GenerateTrajectory(robot, mission.vehicle, mission.duration_s);
   const auto robot_key = static_cast<std::uint64_t>(robot_index) + 1;
@@ -133,10 +161,11 @@ RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robo
         sink.OnDepth(nav.Depth(truth));
         break;
       case kSonar: {
+        if (sonar == nullptr) break;
         const auto id = static_cast<std::uint32_t>(next[kSonar]);
         const msgs::SonarPing ping =
-            sonar.Render(SonarPoseAt(truth, mission.sonar_tilt_rad), t, id,
-                         DeriveSeed(mission.seed, robot_key, std::uint64_t{id} + 1));
+            sonar->Render(SonarPoseAt(truth, mission.sonar_tilt_rad), t, id,
+                          DeriveSeed(mission.seed, robot_key, std::uint64_t{id} + 1));
         sink.OnPing(ping, truth);
         if (time_of(kGroundTruth) != t) sink.OnGroundTruth(TruthPose(truth));
         ++stats.pings;

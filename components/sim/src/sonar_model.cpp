@@ -196,7 +196,7 @@ msgs::SonarPing SonarModel::Render(const SonarPose& pose, double time_s, std::ui
   const double bed_z0 = bed.ZAt(pose.x_m, pose.y_m);
   const double bed_norm = std::sqrt(1.0 + bed.slope_x * bed.slope_x + bed.slope_y * bed.slope_y);
   const double object_scale = o.object_gain / n_el;
-  const double seabed_scale = 24.0 / n_el;  // keep seabed level independent of the ray count
+  const double seabed_scale = o.seabed_gain;
 
   auto deposit = [&](int beam, double range_m, double e, bool object) {
     const double f = range_m / dr - 1.0;
@@ -336,8 +336,10 @@ msgs::SonarPing SonarModel::Render(const SonarPose& pose, double time_s, std::ui
             1.0 +
             bed.texture_contrast * (0.7 * ValueNoise(px / scale, py / scale, 17) +
                                     0.3 * ValueNoise(px / (0.3 * scale), py / (0.3 * scale), 29));
-        const double e =
-            seabed_scale * bed.backscatter * texture * sin_graze * pattern * std::exp(absorb * r);
+        // Backscatter grows with the grazing angle; sqrt rather than Lambert's sin^2 because
+        // the device's time-varied gain flattens the seabed's range profile.
+        const double e = seabed_scale * bed.backscatter * texture * std::sqrt(sin_graze) * pattern *
+                         std::exp(absorb * r);
         // Splat over this slice's range footprint so the seabed is continuous in range.
         const double r_near = std::min(seabed_range(k + 1, g), rmax);
         const double r_far = std::min(seabed_range(k, g), rmax);

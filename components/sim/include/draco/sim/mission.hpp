@@ -59,9 +59,9 @@ struct VehicleOptions {
 
 struct DvlOptions {
   double rate_hz = 5.0;
-  double noise_sigma_mps = 0.015;
-  double scale_sigma = 0.003;  // per-run scale factor N(1, sigma)
-  double misalignment_sigma_rad = 0.3 * M_PI / 180.0;
+  double noise_sigma_mps = 0.02;
+  double scale_sigma = 0.005;  // per-run scale factor N(1, sigma)
+  double misalignment_sigma_rad = 0.5 * M_PI / 180.0;
   double dropout_probability = 0.01;
   double max_altitude_m = 10.0;
   double altitude_noise_sigma_m = 0.05;
@@ -69,11 +69,15 @@ struct DvlOptions {
 
 struct AhrsOptions {
   double rate_hz = 100.0;
-  double yaw_drift_sigma_rad = 2.0 * M_PI / 180.0;  // Gauss-Markov, stationary sigma
+  double yaw_drift_sigma_rad = 3.0 * M_PI / 180.0;  // Gauss-Markov, stationary sigma
   double yaw_drift_tau_s = 120.0;
   double yaw_noise_sigma_rad = 0.2 * M_PI / 180.0;
   double roll_pitch_noise_sigma_rad = 0.5 * M_PI / 180.0;
   double yaw_rate_noise_sigma_radps = 0.002;
+  // Local magnetic heading anomaly near steel objects: +-amplitude (sign per object) with a
+  // Gaussian fall-off of the given length.
+  double steel_anomaly_rad = 5.0 * M_PI / 180.0;
+  double steel_anomaly_length_m = 8.0;
 };
 
 struct DepthOptions {

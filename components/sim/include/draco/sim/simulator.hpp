@@ -42,11 +42,17 @@ class NavigationSensors {
   double dvl_scale() const { return dvl_scale_; }
   double dvl_misalignment_rad() const { return dvl_misalignment_rad_; }
   double yaw_drift_rad() const { return yaw_drift_rad_; }
+  // Magnetic heading anomaly at a position (sum over steel objects).
+  double HeadingAnomaly(double x_m, double y_m) const;
 
  private:
   NavigationOptions options_;
   const World& world_;
   Rng rng_;
+  struct Anomaly {
+    double x_m, y_m, amplitude_rad;
+  };
+  std::vector<Anomaly> anomalies_;
   double dvl_scale_ = 1.0;
   double dvl_misalignment_rad_ = 0.0;
   double yaw_drift_rad_ = 0.0;
@@ -68,9 +74,10 @@ struct RobotProgress {
 
 // Simulates robot `robot_index` of the mission. Streams are emitted in time order (ties:
 // AHRS, DVL, depth, sonar, ground truth). Ground truth comes at ground_truth_rate_hz and at
-// every ping time. Deterministic in (mission.seed, robot_index).
+// every ping time. Deterministic in (mission.seed, robot_index). With sonar == nullptr no
+// pings are rendered (navigation and ground truth only, fast).
 RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robot_index,
-                            const SonarModel& sonar, RobotSink& sink,
+                            const SonarModel* sonar, RobotSink& sink,
                             RobotProgress* progress = nullptr);
 
 // The reference dead reckoning (DVL + AHRS yaw relative to its first reading, trapezoidal

@@ -30,15 +30,17 @@ struct SonarOptions {
   double range_blur_sigma_bins = 0.8;
   double range_jitter_sigma_m = 0.02;  // per object hit
   double speckle_looks = 2.0;          // L of Gamma(L, 1/L)
-  double noise_sigma = 0.07;           // Rayleigh amplitude at max range, scaled (r/r_max)^2
-  double noise_floor_sigma = 0.025;    // Rayleigh amplitude everywhere
+  double noise_sigma = 0.04;           // Rayleigh amplitude at max range, scaled (r/r_max)^2
+  double noise_floor_sigma = 0.018;    // Rayleigh amplitude everywhere
   double near_field_amplitude = 0.25;  // A * exp(-r / near_field_length_m)
   double near_field_length_m = 0.5;
   double streak_fraction = 0.08;  // fraction of beams with near-normal hits in a row
   double streak_level = 0.04;     // added across the row, times the row maximum
   double ghost_amplitude = 0.15;  // surface multipath ghost, 0 disables
   double gain = 20.0;             // g in u8 = 255 * sqrt(clamp(g * E))
-  double object_gain = 3.0;       // energy scale of one object hit per elevation ray
+  double object_gain = 1.5;       // energy scale of object hits (all elevation rays)
+  double seabed_gain = 0.8;  // seabed resolution-cell area factor on mu      // energy scale of one
+                             // object hit per elevation ray
 };
 
 // Pose of the sonar head in the world (z up). Positive tilt points the sonar down.
