@@ -75,8 +75,19 @@ ceres::Solver::Options ToCeres(const SolverOptions& o) {
       options.linear_solver_type = ceres::DENSE_QR;
       break;
   }
-  options.sparse_linear_algebra_library_type =
-      o.sparse_backend == SparseBackend::kEigenSparse ? ceres::EIGEN_SPARSE : ceres::SUITE_SPARSE;
+  switch (o.sparse_backend) {
+    case SparseBackend::kSuiteSparse:
+      options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+      break;
+    case SparseBackend::kEigenSparse:
+      options.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
+      break;
+    case SparseBackend::kCxSparse:
+      options.sparse_linear_algebra_library_type = ceres::CX_SPARSE;
+      break;
+  }
+  options.use_mixed_precision_solves = o.mixed_precision;
+  if (o.mixed_precision) options.max_num_refinement_iterations = 2;
   options.max_num_iterations = o.max_iterations;
   options.num_threads = o.num_threads;
   options.function_tolerance = o.function_tolerance;
@@ -209,7 +220,7 @@ struct PoseGraph2d::Impl {
     out.iterations = static_cast<int>(s.iterations.size()) - 1;
     out.initial_cost = s.initial_cost;
     out.final_cost = s.final_cost;
-    out.report = s.BriefReport();
+    out.report = o.full_report ? s.FullReport() : s.BriefReport();
     return out;
   }
 };
