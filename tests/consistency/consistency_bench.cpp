@@ -1,2 +1,127 @@
+// Consistency-filter timing (docs/benchmarks.md). Not run by CTest:
+//   build-cons/tests/consistency/consistency_bench --benchmark_repetitions=3
+//     --benchmark_report_aggregates_only=true
+// Candidates: the synthetic 3-robot mission (tests/consistency/synthetic.hpp), 40 % true
+// loops, 60 % wrong ones (half random, half in correlated groups of 6).
 #include <benchmark/benchmark.h>
+
+#include <vector>
+
+#include "draco/consistency/filter.hpp"
+#include "draco/consistency/max_clique.hpp"
+#include "synthetic.hpp"
+
+namespace {
+
+using namespace draco::consistency;
+
+synthetic::Mission MakeCandidates(int n) {
+  synthetic::MissionOptions mo;
+  mo.keyframes_per_robot = 160;
+  mo.inliers = n * 2 / 5;
+  mo.outlier_fraction = 0.3;  // random
+  mo.seed = 7;
+  synthetic::Mission m = synthetic::MakeMission(mo);
+  mo.inliers = 0;
+  mo.outlier_fraction = 0.0;
+  // Top up with correlated groups until n candidates.
+  synthetic::MissionOptions go = mo;
+  go.inliers = n - static_cast<int>(m.loops.size());
+  go.outlier_fraction = 0.5;
+  go.outliers = synthetic::OutlierKind::kCorrelated;
+  go.seed = 8;
+  const synthetic::Mission g = synthetic::MakeMission(go);
+  for (std::size_t i = 0; i < g.loops.size() && static_cast<int>(m.loops.size()) < n; ++i) {
+    if (g.inlier[i]) continue;
+    auto loop = g.loops[i];
+    loop.id = m.loops.size();
+    m.loops.push_back(loop);
+    m.inlier.push_back(false);
+  }
+  return m;
+}
+
+Graph ConsistencyGraph(const synthetic::Mission& m) {
+  Graph graph(static_cast<int>(m.loops.size()));
+  for (std::size_t a = 0; a < m.loops.size(); ++a) {
+    for (std::size_t b = a + 1; b < m.loops.size(); ++b) {
+      if (TestPair(m.loops[a], m.loops[b], m.poses, {}).consistent) {
+        graph.AddEdge(static_cast<int>(a), static_cast<int>(b));
+      }
+    }
+  }
+  return graph;
+}
+
+// One decision from scratch: all pair tests and the maximum clique (GCM, default options).
+void BM_DecisionBatch(benchmark::State& state) {
+  const auto m = MakeCandidates(static_cast<int>(state.range(0)));
+  FilterOptions fo;
+  fo.pairwise.covariance =
+      state.range(1) == 0 ? CovarianceModel::kPropagated : CovarianceModel::kFirstLoop;
+  fo.time_budget_ms = 0.0;
+  bool exact = true;
+  for (auto _ : state) {
+    ConsistencyFilter filter(fo);
+    const Decision d = filter.Add(m.loops, m.poses);
+    exact = exact && d.exact;
+    benchmark::DoNotOptimize(d.accepted.data());
+  }
+  state.counters["candidates"] = static_cast<double>(m.loops.size());
+  state.SetLabel(std::string(CovarianceModelName(fo.pairwise.covariance)) +
+                 (exact ? "" : " heuristic"));
+}
+BENCHMARK(BM_DecisionBatch)
+    ->Args({200, 0})
+    ->Args({1000, 0})
+    ->Args({200, 1})
+    ->Args({1000, 1})
+    ->Unit(benchmark::kMillisecond);
+
+// One incremental step: 10 new candidates against n - 10 held ones.
+void BM_DecisionIncremental(benchmark::State& state) {
+  const auto m = MakeCandidates(static_cast<int>(state.range(0)));
+  const std::vector<draco::msgs::InterRobotLoop> held(m.loops.begin(), m.loops.end() - 10);
+  const std::vector<draco::msgs::InterRobotLoop> fresh(m.loops.end() - 10, m.loops.end());
+  FilterOptions fo;
+  fo.time_budget_ms = 0.0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    ConsistencyFilter filter(fo);
+    filter.Add(held, m.poses);
+    state.ResumeTiming();
+    const Decision d = filter.Add(fresh, m.poses);
+    benchmark::DoNotOptimize(d.accepted.data());
+  }
+}
+BENCHMARK(BM_DecisionIncremental)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond);
+
+// Maximum clique alone on the consistency graph: ours vs naive Bron-Kerbosch (no pivot).
+// The naive peer is exponential in the inlier clique, so the ratio rows use small sets.
+void BM_CliqueExact(benchmark::State& state) {
+  const Graph g = ConsistencyGraph(MakeCandidates(static_cast<int>(state.range(0))));
+  std::size_t size = 0;
+  for (auto _ : state) {
+    const CliqueResult r = MaximumClique(g, {0.0, 0});
+    size = r.vertices.size();
+    benchmark::DoNotOptimize(r.vertices.data());
+  }
+  state.counters["clique"] = static_cast<double>(size);
+}
+BENCHMARK(BM_CliqueExact)->Arg(40)->Arg(60)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond);
+
+void BM_CliqueNaiveBronKerbosch(benchmark::State& state) {
+  const Graph g = ConsistencyGraph(MakeCandidates(static_cast<int>(state.range(0))));
+  std::size_t size = 0;
+  for (auto _ : state) {
+    const auto c = MaximumCliqueBronKerboschNaive(g);
+    size = c.size();
+    benchmark::DoNotOptimize(c.data());
+  }
+  state.counters["clique"] = static_cast<double>(size);
+}
+BENCHMARK(BM_CliqueNaiveBronKerbosch)->Arg(40)->Arg(60)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
 BENCHMARK_MAIN();

@@ -22,12 +22,12 @@ enum class OutlierKind { kRandom, kCorrelated };
 struct MissionOptions {
   int keyframes_per_robot = 160;
   double keyframe_step_m = 2.0;
-  double odom_sigma_xy_m = 0.05;  // per keyframe step
-  double odom_sigma_yaw_rad = 0.004;
+  double odom_sigma_xy_m = 0.02;  // per keyframe step (scan-matched local SLAM)
+  double odom_sigma_yaw_rad = 0.001;
   double loop_sigma_xy_m = 0.1;
   double loop_sigma_yaw_rad = 0.01;
-  double map_sigma_xy_m = 0.3;
-  double map_sigma_yaw_rad = 0.02;
+  double map_sigma_xy_m = 0.1;
+  double map_sigma_yaw_rad = 0.005;
   int inliers = 60;  // over both teammates
   double outlier_fraction = 0.0;
   OutlierKind outliers = OutlierKind::kRandom;

@@ -25,13 +25,13 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
   // 1. Place the new candidates in their groups and test them against the held ones.
   std::map<int, int> first_new;  // group -> first new local index
   for (const msgs::InterRobotLoop& loop : loops) {
-    if (!loops_.empty() && loop.own_robot != loops_.front().own_robot) {
+    if (!loops_.empty() && loop.own_robot != loops_.front().loop.own_robot) {
       throw std::invalid_argument("ConsistencyFilter: loops of different own robots");
     }
     const int key = options_.method == Method::kPcm ? loop.teammate_robot : -1;
     Group& group = groups_[key];
     const int index = static_cast<int>(loops_.size());
-    loops_.push_back(loop);
+    loops_.push_back(Prepare(loop, poses));
     accepted_.push_back(false);
     const int local = group.graph.AddVertex();
     group.members.push_back(index);
@@ -46,7 +46,7 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
       ++decision.pair_tests;
       const PairwiseResult r =
           TestPair(loops_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(u)])],
-                   loop, poses, options_.pairwise);
+                   loops_.back(), poses, options_.pairwise);
       if (r.consistent) group.graph.AddEdge(u, local);
     }
     if (reference) group.queue.push_back(local);
@@ -108,7 +108,7 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
   }
 
   for (std::size_t i = 0; i < loops_.size(); ++i) {
-    const std::uint64_t id = loops_[i].id;
+    const std::uint64_t id = loops_[i].loop.id;
     const bool was = i < before.size() && before[i];
     if (accepted_[i]) {
       decision.accepted.push_back(id);

@@ -2,16 +2,9 @@
 
 #include <stdexcept>
 
-#include <Eigen/LU>
+#include <Eigen/LU>  // 3x3 inverse
 
 namespace draco::consistency {
-namespace {
-
-UncertainPose LoopMeasurement(const msgs::InterRobotLoop& z) {
-  return {z.T_ownkf_teammatekf, ToMatrix(z.covariance)};
-}
-
-}  // namespace
 
 const char* CovarianceModelName(CovarianceModel model) {
   return model == CovarianceModel::kFirstLoop ? "first-loop" : "propagated";
@@ -86,8 +79,28 @@ std::optional<UncertainPose> ChainPoseSource::MapTransform(int own_robot, int te
   return it->second;
 }
 
-PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
-                        const PoseSource& poses, const PairwiseOptions& options) {
+PreparedLoop Prepare(const msgs::InterRobotLoop& loop, const PoseSource& poses) {
+  PreparedLoop p;
+  p.loop = loop;
+  p.z = {loop.T_ownkf_teammatekf, ToMatrix(loop.covariance)};
+  p.z_inverse = Inverse(p.z);
+  bool invertible = false;
+  double determinant = 0.0;
+  p.z.covariance.computeInverseAndDetWithCheck(p.information, determinant, invertible);
+  p.information_valid = invertible && determinant > 0.0;
+  const auto T_a_b = poses.MapTransform(loop.own_robot, loop.teammate_robot);
+  const auto x_b = poses.Relative(loop.teammate_robot, 0, loop.teammate_keyframe);
+  if (T_a_b && x_b) {
+    p.in_own_map = true;
+    p.teammate_in_own_map = Compose(*T_a_b, *x_b);
+  }
+  return p;
+}
+
+PairwiseResult TestPair(const PreparedLoop& p1, const PreparedLoop& p2, const PoseSource& poses,
+                        const PairwiseOptions& options) {
+  const msgs::InterRobotLoop& z1 = p1.loop;
+  const msgs::InterRobotLoop& z2 = p2.loop;
   if (z1.own_robot != z2.own_robot) {
     throw std::invalid_argument("TestPair: loops of different own robots");
   }
@@ -99,28 +112,36 @@ PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLo
   std::optional<UncertainPose> x_team;
   if (z1.teammate_robot == z2.teammate_robot) {
     x_team = poses.Relative(z1.teammate_robot, z2.teammate_keyframe, z1.teammate_keyframe);
-  } else {
-    const auto T_a_b = poses.MapTransform(z1.own_robot, z1.teammate_robot);
-    const auto T_a_c = poses.MapTransform(z1.own_robot, z2.teammate_robot);
-    const auto x_b = poses.Relative(z1.teammate_robot, 0, z1.teammate_keyframe);
-    const auto x_c = poses.Relative(z2.teammate_robot, 0, z2.teammate_keyframe);
-    if (!T_a_b || !T_a_c || !x_b || !x_c) return result;
-    x_team = Compose(Compose(Inverse(*x_c), Inverse(*T_a_c)), Compose(*T_a_b, *x_b));
+  } else if (p1.in_own_map && p2.in_own_map) {
+    // inv(T_{a_0 c_l}) * T_{a_0 b_k}, the map transforms of the two teammates independent.
+    x_team = Compose(Inverse(p2.teammate_in_own_map), p1.teammate_in_own_map);
   }
   if (!x_team) return result;
-
-  const UncertainPose m1 = LoopMeasurement(z1);
-  const UncertainPose m2 = LoopMeasurement(z2);
-  const UncertainPose e = Compose(Compose(Inverse(m1), *x_own), Compose(m2, *x_team));
   result.evaluated = true;
-  result.error = ErrorVector(e.pose);
-  const Eigen::Matrix3d covariance =
-      options.covariance == CovarianceModel::kFirstLoop ? m1.covariance : e.covariance;
-  const Eigen::FullPivLU<Eigen::Matrix3d> lu(covariance);
-  if (!lu.isInvertible()) return result;  // evaluated, inconsistent
-  result.mahalanobis_squared = result.error.dot(lu.solve(result.error));
+
+  if (options.covariance == CovarianceModel::kFirstLoop) {
+    const Pose2 e =
+        Compose(Compose(p1.z_inverse.pose, x_own->pose), Compose(p2.z.pose, x_team->pose));
+    result.error = ErrorVector(e);
+    if (!p1.information_valid) return result;
+    result.mahalanobis_squared = result.error.dot(p1.information * result.error);
+  } else {
+    const UncertainPose e = Compose(Compose(p1.z_inverse, *x_own), Compose(p2.z, *x_team));
+    result.error = ErrorVector(e.pose);
+    Eigen::Matrix3d information;
+    bool invertible = false;
+    double determinant = 0.0;
+    e.covariance.computeInverseAndDetWithCheck(information, determinant, invertible);
+    if (!invertible || determinant <= 0.0) return result;  // evaluated, inconsistent
+    result.mahalanobis_squared = result.error.dot(information * result.error);
+  }
   result.consistent = result.mahalanobis_squared < options.chi2_threshold;
   return result;
+}
+
+PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
+                        const PoseSource& poses, const PairwiseOptions& options) {
+  return TestPair(Prepare(z1, poses), Prepare(z2, poses), poses, options);
 }
 
 }  // namespace draco::consistency

@@ -63,7 +63,7 @@ class ConsistencyFilter {
   };
 
   FilterOptions options_;
-  std::vector<msgs::InterRobotLoop> loops_;
+  std::vector<PreparedLoop> loops_;  // prepared with the poses of their arrival step
   std::vector<bool> accepted_;
   std::map<int, Group> groups_;  // teammate (PCM) or -1 (GCM)
 };

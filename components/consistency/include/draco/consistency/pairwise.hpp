@@ -80,8 +80,24 @@ struct PairwiseOptions {
   double chi2_threshold = 11.34;
 };
 
+// The per-loop parts of the test, computed once per loop: inv(z) and the teammate keyframe
+// in the own map frame, T_{a_0 b_k} = T_{a_0 b_0} * x_{b_0 b_k} (when the map transform is
+// known), both with covariances.
+struct PreparedLoop {
+  msgs::InterRobotLoop loop;
+  UncertainPose z;
+  UncertainPose z_inverse;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // inverse of the loop covariance
+  bool information_valid = false;
+  bool in_own_map = false;
+  UncertainPose teammate_in_own_map;
+};
+PreparedLoop Prepare(const msgs::InterRobotLoop& loop, const PoseSource& poses);
+
 // The cycle error of two loops of the same own robot. Loops with different teammates need
 // both map transforms (GCM); with the same teammate they are not used.
+PairwiseResult TestPair(const PreparedLoop& z1, const PreparedLoop& z2, const PoseSource& poses,
+                        const PairwiseOptions& options);
 PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
                         const PoseSource& poses, const PairwiseOptions& options);
 
