@@ -25,6 +25,8 @@ void ChainPoseSource::AddKeyframe(int robot, const Pose2& T_map_kf,
     chain.cumulative.push_back(J_a * chain.cumulative.back() * J_a.transpose() +
                                J_b * step_covariance * J_b.transpose());
   }
+  chain.from_first.push_back(chain.poses.empty() ? Pose2{}
+                                                 : Between(chain.poses.front(), T_map_kf));
   chain.poses.push_back(T_map_kf);
 }
 
@@ -55,8 +57,7 @@ std::optional<UncertainPose> ChainPoseSource::Relative(int robot, int from_keyfr
   const int lo = forward ? from_keyframe : to_keyframe;
   const int hi = forward ? to_keyframe : from_keyframe;
   // T_0_hi = T_0_lo * T_lo_hi with T_lo_hi independent of T_0_lo: solve for Cov(T_lo_hi).
-  const Pose2& origin = chain.poses.front();
-  const Pose2 T_0_lo = Between(origin, chain.poses[static_cast<std::size_t>(lo)]);
+  const Pose2& T_0_lo = chain.from_first[static_cast<std::size_t>(lo)];
   UncertainPose rel;
   rel.pose =
       Between(chain.poses[static_cast<std::size_t>(lo)], chain.poses[static_cast<std::size_t>(hi)]);

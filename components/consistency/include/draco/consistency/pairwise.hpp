@@ -62,6 +62,7 @@ class ChainPoseSource : public PoseSource {
  private:
   struct Chain {
     std::vector<Pose2> poses;                 // T_map_kf
+    std::vector<Pose2> from_first;            // T_kf0_kf
     std::vector<Eigen::Matrix3d> cumulative;  // covariance of T_kf0_kf
   };
   std::map<int, Chain> chains_;
