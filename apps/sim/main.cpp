@@ -40,22 +40,8 @@ class RobotRun : public draco::sim::RobotSink {
   void OnPing(const draco::msgs::SonarPing& ping,
               const draco::sim::TrajectorySample& truth) override {
     out_->OnPing(ping, truth);
-    path_.push_back({truth.x_m, truth.y_m});
-    if (!have_start_) {
-      start_ = truth;
-      have_start_ = true;
-    }
-    // Dead-reckoning error against ground truth, in the robot's start frame.
-    const double dx = truth.x_m - start_.x_m;
-    const double dy = truth.y_m - start_.y_m;
-    const double c = std::cos(start_.yaw_rad);
-    const double s = std::sin(start_.yaw_rad);
-    const double ex = c * dx + s * dy - dr_.x_m();
-    const double ey = -s * dx + c * dy - dr_.y_m();
-    last_error_m_ = std::hypot(ex, ey);
-    max_error_m_ = std::max(max_error_m_, last_error_m_);
-    distance_m_ = truth.distance_m;
     // Pixels above the CFAR absolute threshold, and a structure-rich frame to show.
+    ++pings_;
     std::size_t bright = 0;
     for (auto v : ping.intensity) bright += v > 65;
     bright_pixels_ += bright;
@@ -77,7 +63,25 @@ class RobotRun : public draco::sim::RobotSink {
   void OnDepth(const draco::msgs::Depth& depth) override { out_->OnDepth(depth); }
   void OnGroundTruth(const draco::msgs::GroundTruthPose& pose) override {
     out_->OnGroundTruth(pose);
+    const Vec2 p{pose.position_m[0], pose.position_m[1]};
+    if (!have_start_) {
+      start_ = pose;
+      have_start_ = true;
+      path_.push_back(p);
+      last_ = p;
+    }
+    distance_m_ += draco::sim::Norm(p - last_);
+    last_ = p;
+    if (draco::sim::Norm(p - path_.back()) > 0.2) path_.push_back(p);
+    // Dead-reckoning error against ground truth, in the robot's start frame.
+    const double dx = p.x - start_.position_m[0];
+    const double dy = p.y - start_.position_m[1];
+    const double c = std::cos(start_.yaw_rad);
+    const double s = std::sin(start_.yaw_rad);
+    last_error_m_ = std::hypot(c * dx + s * dy - dr_.x_m(), -s * dx + c * dy - dr_.y_m());
+    max_error_m_ = std::max(max_error_m_, last_error_m_);
   }
+  std::uint64_t pings() const { return pings_; }
 
   const std::string& name() const { return name_; }
   const std::vector<Vec2>& path() const { return path_; }
@@ -94,7 +98,9 @@ class RobotRun : public draco::sim::RobotSink {
   std::string name_;
   draco::sim_app::RecordingSink* out_;
   draco::sim::DeadReckoning dr_;
-  draco::sim::TrajectorySample start_;
+  draco::msgs::GroundTruthPose start_;
+  Vec2 last_;
+  std::uint64_t pings_ = 0;
   bool have_start_ = false;
   std::vector<Vec2> path_;
   double distance_m_ = 0.0;
@@ -134,7 +140,7 @@ double Overlap(const std::vector<Vec2>& mine, const std::vector<std::vector<Vec2
 
 int RunMission(const std::string& mission_file, const std::string& out_dir,
                std::optional<std::uint64_t> seed, std::optional<double> duration_s,
-               std::optional<int> robots, int threads, bool pictures) {
+               std::optional<int> robots, int threads, bool pictures, bool sonar_on) {
   const auto t_start = Clock::now();
   draco::sim::Mission mission = draco::sim::LoadMission(mission_file);
   if (seed) mission.seed = *seed;
@@ -181,7 +187,8 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
         i = next_robot++;
       }
       try {
-        draco::sim::SimulateRobot(world, mission, i, &sonar, *runs[i], &progress[i]);
+        draco::sim::SimulateRobot(world, mission, i, sonar_on ? &sonar : nullptr, *runs[i],
+                                  &progress[i]);
         sinks[i]->Close();
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex);
@@ -194,7 +201,7 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
       done_cv.notify_all();
     }
   };
-  const int n_threads = std::max(1, std::min(threads, n));
+  const int n_threads = threads > 0 ? std::min(threads, n) : n;
   std::vector<std::thread> pool;
   for (int t = 0; t < n_threads; ++t) pool.emplace_back(worker);
 
@@ -249,9 +256,9 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
     std::snprintf(buf, sizeof(buf),
                   "  %-8s %6zu pings  %6.1f m  dead reckoning: final error %.2f m (%.2f %%), "
                   "max %.2f m  pixels>65 %.3f %%  overlap(10 m) %.0f %%\n",
-                  r.name().c_str(), r.path().size(), r.distance_m(), r.final_error_m(),
-                  100.0 * r.final_error_m() / dist, r.max_error_m(), 100.0 * r.bright_fraction(),
-                  100.0 * Overlap(r.path(), others, 10.0));
+                  r.name().c_str(), static_cast<std::size_t>(r.pings()), r.distance_m(),
+                  r.final_error_m(), 100.0 * r.final_error_m() / dist, r.max_error_m(),
+                  100.0 * r.bright_fraction(), 100.0 * Overlap(r.path(), others, 10.0));
     summary << buf;
   }
   std::cout << summary.str();
@@ -290,16 +297,20 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 0;
   double duration_s = 0.0;
   int robots = 0;
-  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int threads = 0;  // 0: one thread per robot
   bool no_pictures = false;
+  bool no_sonar = false;
   app.add_option("mission", mission_file, "mission YAML (config/missions/*.yaml)");
   auto* out_opt = app.add_option("--out", out_dir, "output mission directory");
   auto* seed_opt = app.add_option("--seed", seed, "override the mission seed");
   auto* duration_opt = app.add_option("--duration-s", duration_s, "cap each robot's duration");
   auto* robots_opt = app.add_option("--robots", robots, "simulate only the first K robots");
-  app.add_option("--threads", threads, "worker threads (robots run in parallel)")
-      ->check(CLI::PositiveNumber);
+  app.add_option("--threads", threads,
+                 "worker threads; robots run in parallel (default: one per robot)")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-pictures", no_pictures, "skip the PNG pictures");
+  app.add_flag("--no-sonar", no_sonar,
+               "navigation and ground truth only (fast; for designing missions)");
   auto* world_opt = app.add_option("--world", world_file, "world YAML, with --picture");
   app.add_option("--picture", picture, "write a PNG of --world and exit")->needs(world_opt);
   CLI11_PARSE(app, argc, argv);
@@ -319,7 +330,7 @@ int main(int argc, char** argv) {
                       seed_opt->count() ? std::optional<std::uint64_t>(seed) : std::nullopt,
                       duration_opt->count() ? std::optional<double>(duration_s) : std::nullopt,
                       robots_opt->count() ? std::optional<int>(robots) : std::nullopt, threads,
-                      !no_pictures);
+                      !no_pictures, !no_sonar);
   } catch (const std::exception& e) {
     std::cerr << "draco-sim: error: " << e.what() << "\n";
     return 1;
