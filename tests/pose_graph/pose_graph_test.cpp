@@ -278,6 +278,41 @@ TEST(PoseGraph2d, WindowSolveOnlyMovesTheNewestPoses) {
   EXPECT_EQ(graph.Pose(10).x_m, -50.0);  // outside the window: untouched
 }
 
+TEST(PoseGraph2d, ConstantPoseReplacesTheAutomaticGauge) {
+  PoseGraph2d graph;
+  graph.AddPose(0, {});
+  graph.AddPose(1, {5.0, 5.0, 1.0});
+  graph.AddPose(2, {0.0, 0.0, 0.0});
+  graph.AddBetween(0, 1, {1.0, 0.0, 0.0}, Diagonal3(1, 1, 1));
+  graph.AddBetween(1, 2, {1.0, 0.0, 0.0}, Diagonal3(1, 1, 1));
+  graph.SetPoseConstant(1);  // pose 1 holds the gauge; pose 0 is free now
+  const SolveSummary s = graph.Optimize();
+  ASSERT_TRUE(s.usable);
+  EXPECT_EQ(s.variable_poses, 2);
+  EXPECT_EQ(graph.Pose(1).x_m, 5.0);
+  EXPECT_NEAR(graph.Pose(2).x_m, 5.0 + std::cos(1.0), 1e-6);
+  EXPECT_NEAR(graph.Pose(0).x_m, 5.0 - std::cos(1.0), 1e-6);
+  graph.SetPoseConstant(1, false);  // back to the automatic gauge on pose 0
+  EXPECT_EQ(graph.Optimize().variable_poses, 2);
+}
+
+TEST(PoseGraph2d, UpdateRunsAPeriodicFullSolve) {
+  const SyntheticGraph g = MakeGridWalk({.num_poses = 60, .loop_radius_m = -1.0, .seed = 9});
+  PoseGraph2d graph;
+  graph.AddPose(0, g.truth[0]);
+  graph.AddPrior(0, g.truth[0], g.Information());
+  std::vector<int> full_at;
+  for (const auto& e : g.edges) {
+    graph.AddPose(e.j, Compose(graph.Pose(e.i), e.T_i_j));
+    graph.AddBetween(e.i, e.j, e.T_i_j, g.Information());
+    if (graph.Update({.window_size = 10, .full_solve_every = 25}).full) full_at.push_back(e.j);
+  }
+  // Full while the graph fits the window (poses 1-9: 2-10 poses), then every 25 poses.
+  ASSERT_GE(full_at.size(), 3u);
+  EXPECT_EQ(full_at[full_at.size() - 2], 34);
+  EXPECT_EQ(full_at.back(), 59);
+}
+
 // Two poses, a prior on the first and one between factor: the relative pose is determined by
 // the measurement alone, so its covariance (right perturbation, frame of pose 1) is exactly
 // the measurement covariance Omega^-1, whatever the prior and the measured rotation.

@@ -264,7 +264,11 @@ void PoseGraph2d::SetPoseConstant(PoseId id, bool constant) {
   auto& n = impl_->nodes[impl_->Index(id)];
   if (n.constant == constant) return;
   n.constant = constant;
-  impl_->num_constant += constant ? 1 : std::size_t(-1);
+  if (constant) {
+    ++impl_->num_constant;
+  } else {
+    --impl_->num_constant;
+  }
 }
 
 std::size_t PoseGraph2d::AddPrior(PoseId id, const Pose2& T_world_pose, const Matrix3& information,
