@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace draco::sim {
 
@@ -144,7 +145,8 @@ Trajectory GenerateTrajectory(const RobotSpec& robot, const VehicleOptions& vehi
   double phase = 0.0;
   for (char ch : robot.name) phase += 0.37 * static_cast<unsigned char>(ch);
 
-  for (double t = 0.0;; t += dt) {
+  for (std::int64_t tick = 0;; ++tick) {
+    const double t = static_cast<double>(tick) * dt;
     // Progress: nearest path point in a window ahead (never jumps across a crossing).
     std::size_t best = progress;
     double best_d = Norm(path[progress] - pos);
@@ -180,7 +182,7 @@ Trajectory GenerateTrajectory(const RobotSpec& robot, const VehicleOptions& vehi
     s.vz_body_mps = vz;
     s.distance_m = distance;
     out.push_back(s);
-    if (at_end || t >= max_time) break;
+    if (at_end || t >= max_time - 1e-9) break;
 
     // Pure pursuit: aim at the path point lookahead_m of arc ahead of the progress point.
     std::size_t target = progress;
