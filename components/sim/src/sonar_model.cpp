@@ -325,7 +325,8 @@ msgs::SonarPing SonarModel::Render(const SonarPose& pose, double time_s, std::ui
         }
       } else if (kind == kBed) {
         const double r = best / c;
-        if (r >= rmax) continue;
+        // The slice's footprint may start inside the range even when this ray lands beyond.
+        if (std::min(r, seabed_range(k + 1, g)) >= rmax) continue;
         const double px = pose.x_m + best * dir.x;
         const double py = pose.y_m + best * dir.y;
         // Grazing angle between the ray and the seabed plane.
@@ -346,15 +347,39 @@ msgs::SonarPing SonarModel::Render(const SonarPose& pose, double time_s, std::ui
         const double f0 = std::max(0.0, r_near / dr - 1.0);
         const double f1 = std::min(static_cast<double>(nr - 1), r_far / dr - 1.0);
         if (f1 <= f0) {
-          deposit(b, r, e, false);
+          if (r < rmax) deposit(b, r, e, false);
           continue;
         }
+        // Long footprints (the upper, near-grazing slices) are re-evaluated every kSegment
+        // bins at their own range (flat-seabed geometry), so texture, grazing angle, beam
+        // pattern and absorption vary along them instead of making radial stripes.
+        constexpr int kSegment = 8;
+        const bool long_footprint = f1 - f0 > kSegment;
+        const double height = pose.z_m - bed_z0;
+        double e_segment = e;
+        int segment = -1;
         for (int i = static_cast<int>(f0); i <= static_cast<int>(f1) && i < nr; ++i) {
           const double cover = std::min(f1, i + 1.0) - std::max(f0, static_cast<double>(i));
           if (cover <= 0.0) continue;
+          if (long_footprint && i / kSegment != segment) {
+            segment = i / kSegment;
+            const double rm = (segment * kSegment + 0.5 * kSegment + 1.0) * dr;
+            const double sin_el = std::min(1.0, height / rm);
+            const double sm = rm * std::sqrt(1.0 - sin_el * sin_el);
+            const double qx = pose.x_m + sm * dir.x;
+            const double qy = pose.y_m + sm * dir.y;
+            const double tex =
+                1.0 + bed.texture_contrast *
+                          (0.7 * ValueNoise(qx / scale, qy / scale, 17) +
+                           0.3 * ValueNoise(qx / (0.3 * scale), qy / (0.3 * scale), 29));
+            const double er = std::clamp(
+                (-std::asin(sin_el) - elev_center) / (0.5 * o.vertical_aperture_rad), -1.0, 1.0);
+            e_segment = seabed_scale * bed.backscatter * tex * std::sqrt(sin_el) *
+                        (1.0 - 0.6 * er * er) * std::exp(absorb * rm);
+          }
           const std::size_t cell = static_cast<std::size_t>(i) * nb + b;
-          sc.bed[cell] += static_cast<float>(e * cover);
-          if (truth != nullptr) seabed_energy[cell] += static_cast<float>(e * cover);
+          sc.bed[cell] += static_cast<float>(e_segment * cover);
+          if (truth != nullptr) seabed_energy[cell] += static_cast<float>(e_segment * cover);
         }
       }
     }
