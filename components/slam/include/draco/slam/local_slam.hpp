@@ -1,0 +1,103 @@
+// Local SLAM back end of one robot (Bruce-SLAM's scheme, DRACo-SLAM2 section III-A):
+// keyframes and sequential scan-matching factors go into a Ceres SE(2) pose graph; intra-robot
+// loop closures are proposed from the current estimate, registered by ICP against a submap,
+// checked for pairwise consistency (PCM over the odometry chain) and added with a robust loss.
+// No runtime dependency.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "draco/msgs/slam.hpp"
+
+namespace draco::slam {
+
+struct LocalSlamOptions {
+  // Gauge prior on the first keyframe (sigmas as the reference's prior).
+  double prior_sigma_xy_m = 0.1;
+  double prior_sigma_yaw_rad = 0.01;
+  // Floors on factor sigmas (the reference's ICP sigmas): ICP covariances from hundreds of
+  // points are overconfident. Measured on the marina mission (docs/local-slam.md).
+  double min_factor_sigma_xy_m = 0.1;
+  double min_factor_sigma_yaw_rad = 0.01;
+  // Keep the dead-reckoning increment as a factor beside each scan-matching factor, and put
+  // a Cauchy loss (scale in sigmas; 0: none) on scan-matching factors.
+  bool keep_dead_reckoning_factor = true;
+  double scan_match_cauchy_scale = 1.0;
+
+  bool loop_closure = true;
+  int loop_min_index_gap = 8;  // keyframes at least this far apart
+  double loop_max_distance_m = 10.0;
+  double loop_max_yaw_rad = 60.0 * std::numbers::pi / 180.0;
+  int loop_min_points = 50;
+  int loop_submap_half_width = 2;  // target: the candidate keyframe and this many each side
+  int loop_max_candidates = 3;     // nearest candidates registered per keyframe
+  double loop_min_overlap = 0.5;
+  // Correlative search around the estimate seeds loop-closure ICP (0 m: ICP from the estimate).
+  double seed_search_m = 2.5;
+  double seed_search_rad = 15.0 * std::numbers::pi / 180.0;
+  double seed_resolution_m = 0.5;
+  double seed_angle_step_rad = 2.0 * std::numbers::pi / 180.0;
+  double loop_max_correction_m = 3.0;  // seed + ICP may move the estimate by at most this
+  double loop_max_correction_rad = 30.0 * std::numbers::pi / 180.0;
+  // Loop covariance floor (the reference's ICP sigmas 0.1 m, 0.01 rad) and the PCM test.
+  double loop_min_sigma_xy_m = 0.1;
+  double loop_min_sigma_yaw_rad = 0.01;
+  double pcm_chi2_threshold = 11.34;
+  int pcm_min_clique_size = 2;
+  double loop_cauchy_scale = 1.0;  // robust loss on loop factors, in sigmas
+
+  int window_size = 20;  // incremental solve window (newest keyframes)
+};
+
+struct KeyframeEstimate {
+  int index = 0;
+  double time_s = 0.0;
+  msgs::Pose2 T_map_kf;   // optimised
+  msgs::Pose2 T_odom_kf;  // dead reckoning at the keyframe time
+  int num_points = 0;
+};
+
+struct LoopRecord {
+  int from_index = 0;  // older keyframe (target)
+  int to_index = 0;    // newer keyframe (source)
+  msgs::Pose2 T_from_to;
+  double overlap_ratio = 0.0;
+  bool accepted = false;
+};
+
+struct StepResult {
+  int loops_registered = 0;  // candidates that passed ICP and the gates
+  int loops_accepted = 0;    // newly accepted by PCM and added to the graph
+  bool full_solve = false;
+  double solve_time_s = 0.0;
+};
+
+class LocalSlam {
+ public:
+  explicit LocalSlam(const LocalSlamOptions& options = {});
+  ~LocalSlam();
+  LocalSlam(LocalSlam&&) noexcept;
+  LocalSlam& operator=(LocalSlam&&) noexcept;
+
+  // Adds keyframe k with the factor from k-1 (nullptr for the first keyframe, or to use the
+  // dead-reckoning increment carried by the keyframe). Keyframes must arrive in index order.
+  StepResult AddKeyframe(const msgs::Keyframe& keyframe, const msgs::SequentialFactor* factor);
+
+  std::vector<KeyframeEstimate> Trajectory() const;
+  const std::vector<LoopRecord>& Loops() const;
+  // Every keyframe's points in the map frame.
+  std::vector<msgs::Point2> MapPoints() const;
+  // The pose graph as g2o text (VERTEX_SE2 / EDGE_SE2).
+  std::string ToG2oText() const;
+  int NumKeyframes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace draco::slam

@@ -1,0 +1,318 @@
+#include "draco/slam/local_slam.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/LU>
+
+#include "draco/consistency/filter.hpp"
+#include "draco/consistency/se2.hpp"
+#include "draco/icp/icp.hpp"
+#include "draco/pose_graph/g2o.hpp"
+#include "draco/pose_graph/pose_graph_2d.hpp"
+
+namespace draco::slam {
+namespace {
+
+namespace pg = draco::pose_graph;
+
+pg::Pose2 ToPg(const msgs::Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
+msgs::Pose2 FromPg(const pg::Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
+
+// Covariance with its diagonal raised to at least the given sigmas (off-diagonals kept).
+Eigen::Matrix3d Floored(const msgs::Covariance3& c, double sigma_xy, double sigma_yaw) {
+  Eigen::Matrix3d m = consistency::ToMatrix(c);
+  if (!m.allFinite()) m.setZero();
+  const double floors[3] = {sigma_xy * sigma_xy, sigma_xy * sigma_xy, sigma_yaw * sigma_yaw};
+  for (int i = 0; i < 3; ++i) m(i, i) = std::max(m(i, i), floors[i]);
+  return 0.5 * (m + m.transpose());
+}
+
+pg::Matrix3 Information(const Eigen::Matrix3d& covariance) {
+  const Eigen::Matrix3d info = covariance.inverse();
+  pg::Matrix3 out;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c)
+      out[static_cast<std::size_t>(3 * r + c)] = 0.5 * (info(r, c) + info(c, r));
+  }
+  return out;
+}
+
+// Correlative search for an ICP seed (as in real-time correlative scan matching): the target
+// is rasterised into an occupancy grid dilated by one cell, and every rotation and
+// translation of the source on a lattice around `guess` is scored by the number of source
+// points that land on occupied cells. Returns the best lattice pose.
+msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target,
+                            const msgs::Pose2& guess, const LocalSlamOptions& o) {
+  if (source.empty() || target.empty()) return guess;
+  const double res = o.seed_resolution_m;
+  double min_x = target[0].x(), max_x = min_x, min_y = target[0].y(), max_y = min_y;
+  for (const auto& p : target) {
+    min_x = std::min(min_x, p.x());
+    max_x = std::max(max_x, p.x());
+    min_y = std::min(min_y, p.y());
+    max_y = std::max(max_y, p.y());
+  }
+  const int w = static_cast<int>((max_x - min_x) / res) + 3;
+  const int h = static_cast<int>((max_y - min_y) / res) + 3;
+  std::vector<std::uint8_t> grid(static_cast<std::size_t>(w) * h, 0);
+  const double ox = min_x - res, oy = min_y - res;
+  for (const auto& p : target) {
+    const int cx = static_cast<int>((p.x() - ox) / res), cy = static_cast<int>((p.y() - oy) / res);
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = cx + dx, y = cy + dy;
+        if (x >= 0 && y >= 0 && x < w && y < h) grid[static_cast<std::size_t>(y) * w + x] = 1;
+      }
+    }
+  }
+  const int nt = static_cast<int>(std::round(o.seed_search_m / res));
+  const int nr = static_cast<int>(std::round(o.seed_search_rad / o.seed_angle_step_rad));
+  msgs::Pose2 best = guess;
+  int best_score = -1;
+  std::vector<double> rx(source.size()), ry(source.size());
+  for (int ir = -nr; ir <= nr; ++ir) {
+    const double yaw = guess.yaw_rad + ir * o.seed_angle_step_rad;
+    const double c = std::cos(yaw), s = std::sin(yaw);
+    for (std::size_t i = 0; i < source.size(); ++i) {
+      rx[i] = c * source[i].x() - s * source[i].y() + guess.x_m - ox;
+      ry[i] = s * source[i].x() + c * source[i].y() + guess.y_m - oy;
+    }
+    for (int iy = -nt; iy <= nt; ++iy) {
+      for (int ix = -nt; ix <= nt; ++ix) {
+        int score = 0;
+        for (std::size_t i = 0; i < source.size(); ++i) {
+          const int x = static_cast<int>(std::floor((rx[i] + ix * res) / res));
+          const int y = static_cast<int>(std::floor((ry[i] + iy * res) / res));
+          if (x >= 0 && y >= 0 && x < w && y < h)
+            score += grid[static_cast<std::size_t>(y) * w + x];
+        }
+        // Ties keep the pose closest to the guess (visited first from the centre is not
+        // guaranteed, so compare the offset explicitly).
+        const bool closer =
+            score == best_score &&
+            (std::abs(ix) + std::abs(iy) + std::abs(ir)) <
+                (std::abs(static_cast<int>(std::round((best.x_m - guess.x_m) / res))) +
+                 std::abs(static_cast<int>(std::round((best.y_m - guess.y_m) / res))) +
+                 std::abs(static_cast<int>(
+                     std::round((best.yaw_rad - guess.yaw_rad) / o.seed_angle_step_rad))));
+        if (score > best_score || closer) {
+          best_score = score;
+          best = {guess.x_m + ix * res, guess.y_m + iy * res, yaw};
+        }
+      }
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+struct LocalSlam::Impl {
+  LocalSlamOptions options;
+  pg::PoseGraph2d graph;
+  std::vector<msgs::Keyframe> keyframes;
+  std::vector<icp::Cloud2> clouds;     // keyframe points, body frame
+  consistency::ChainPoseSource chain;  // the odometry chain, for PCM
+  consistency::ConsistencyFilter pcm;
+  std::vector<LoopRecord> loops;
+  std::map<std::uint64_t, std::size_t> loop_by_id;
+  std::uint64_t next_loop_id = 0;
+
+  explicit Impl(const LocalSlamOptions& o)
+      : options(o), pcm([&] {
+          consistency::FilterOptions f;
+          f.method = consistency::Method::kPcm;
+          f.min_clique_size = o.pcm_min_clique_size;
+          f.pairwise.chi2_threshold = o.pcm_chi2_threshold;
+          return f;
+        }()) {}
+
+  msgs::Pose2 Estimate(int index) const { return FromPg(graph.Pose(index)); }
+
+  // Registers keyframe k against the submaps around older keyframes near its estimate.
+  std::vector<msgs::InterRobotLoop> ProposeLoops(int k) {
+    std::vector<msgs::InterRobotLoop> out;
+    const auto& o = options;
+    if (!o.loop_closure || static_cast<int>(clouds[k].size()) < o.loop_min_points) return out;
+    const msgs::Pose2 T_map_k = Estimate(k);
+    std::vector<std::pair<double, int>> candidates;
+    for (int j = 0; j + o.loop_min_index_gap <= k; ++j) {
+      if (static_cast<int>(clouds[j].size()) < o.loop_min_points) continue;
+      const msgs::Pose2 T_j_k = consistency::Between(Estimate(j), T_map_k);
+      const double d = std::hypot(T_j_k.x_m, T_j_k.y_m);
+      if (d <= o.loop_max_distance_m && std::abs(T_j_k.yaw_rad) <= o.loop_max_yaw_rad) {
+        candidates.push_back({d, j});
+      }
+    }
+    std::sort(candidates.begin(), candidates.end());
+    // Skip candidates next to one already tried: their submaps overlap.
+    std::vector<int> tried;
+    for (const auto& [d, j] : candidates) {
+      if (static_cast<int>(tried.size()) >= o.loop_max_candidates) break;
+      bool near_tried = false;
+      for (int t : tried) near_tried |= std::abs(t - j) <= o.loop_submap_half_width;
+      if (near_tried) continue;
+      tried.push_back(j);
+      // Target: keyframes j-w .. j+w (never within the gap of k) in j's frame.
+      icp::Cloud2 target;
+      const msgs::Pose2 T_map_j = Estimate(j);
+      for (int i = std::max(0, j - o.loop_submap_half_width);
+           i <= std::min(k - o.loop_min_index_gap, j + o.loop_submap_half_width); ++i) {
+        const msgs::Pose2 T_j_i = consistency::Between(T_map_j, Estimate(i));
+        const double c = std::cos(T_j_i.yaw_rad), s = std::sin(T_j_i.yaw_rad);
+        for (const auto& p : clouds[i]) {
+          target.emplace_back(c * p.x() - s * p.y() + T_j_i.x_m, s * p.x() + c * p.y() + T_j_i.y_m);
+        }
+      }
+      const msgs::Pose2 guess = consistency::Between(T_map_j, T_map_k);
+      const msgs::Pose2 seed =
+          o.seed_search_m > 0 ? CorrelativeSeed(clouds[k], target, guess, o) : guess;
+      const icp::IcpResult r = icp::AlignIcp(clouds[k], target, seed);
+      if (!r.valid || r.overlap_ratio < o.loop_min_overlap) continue;
+      const msgs::Pose2 correction = consistency::Between(guess, r.T_target_source);
+      if (std::hypot(correction.x_m, correction.y_m) > o.loop_max_correction_m ||
+          std::abs(correction.yaw_rad) > o.loop_max_correction_rad) {
+        continue;
+      }
+      msgs::InterRobotLoop loop;
+      loop.id = next_loop_id++;
+      // As a PCM candidate: own keyframe j, "teammate" keyframe k of the same robot.
+      loop.own_robot = 0;
+      loop.teammate_robot = 0;
+      loop.own_keyframe = j;
+      loop.teammate_keyframe = k;
+      loop.T_ownkf_teammatekf = r.T_target_source;
+      loop.covariance = consistency::FromMatrix(
+          Floored(r.covariance, o.loop_min_sigma_xy_m, o.loop_min_sigma_yaw_rad));
+      loop.overlap = r.overlap_ratio;
+      loop_by_id[loop.id] = loops.size();
+      loops.push_back(LoopRecord{j, k, r.T_target_source, r.overlap_ratio, false});
+      out.push_back(loop);
+    }
+    return out;
+  }
+};
+
+LocalSlam::LocalSlam(const LocalSlamOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+LocalSlam::~LocalSlam() = default;
+LocalSlam::LocalSlam(LocalSlam&&) noexcept = default;
+LocalSlam& LocalSlam::operator=(LocalSlam&&) noexcept = default;
+
+int LocalSlam::NumKeyframes() const { return static_cast<int>(impl_->keyframes.size()); }
+
+StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
+                                  const msgs::SequentialFactor* factor) {
+  Impl& m = *impl_;
+  const auto& o = m.options;
+  const int k = static_cast<int>(m.keyframes.size());
+  if (keyframe.index != k) {
+    throw std::invalid_argument("LocalSlam: keyframe " + std::to_string(keyframe.index) +
+                                " arrived, expected " + std::to_string(k));
+  }
+  if (factor != nullptr && (factor->to_index != k || factor->from_index != k - 1)) {
+    throw std::invalid_argument("LocalSlam: factor " + std::to_string(factor->from_index) + "->" +
+                                std::to_string(factor->to_index) + " does not lead to keyframe " +
+                                std::to_string(k));
+  }
+  m.keyframes.push_back(keyframe);
+  m.clouds.push_back(icp::ToCloud(keyframe.points_body));
+
+  StepResult result;
+  if (k == 0) {
+    m.graph.AddPose(0, ToPg(keyframe.T_odom_body));
+    m.graph.AddPrior(
+        0, ToPg(keyframe.T_odom_body),
+        pg::InformationFromSigmas(o.prior_sigma_xy_m, o.prior_sigma_xy_m, o.prior_sigma_yaw_rad));
+    m.chain.AddKeyframe(0, keyframe.T_odom_body, Eigen::Matrix3d::Zero());
+    return result;
+  }
+  const msgs::Pose2 T_prev_k = factor != nullptr ? factor->T_from_to : keyframe.T_prevkf_kf;
+  const Eigen::Matrix3d cov =
+      Floored(factor != nullptr ? factor->covariance : keyframe.covariance_prevkf_kf,
+              o.min_factor_sigma_xy_m, o.min_factor_sigma_yaw_rad);
+  const msgs::Pose2 initial = consistency::Compose(m.Estimate(k - 1), T_prev_k);
+  m.graph.AddPose(k, ToPg(initial));
+  const bool scan_matched = factor != nullptr && factor->scan_matched;
+  const pg::RobustLoss sequential_loss =
+      scan_matched && o.scan_match_cauchy_scale > 0
+          ? pg::RobustLoss{pg::LossKind::kCauchy, o.scan_match_cauchy_scale}
+          : pg::RobustLoss{};
+  m.graph.AddBetween(k - 1, k, ToPg(T_prev_k), Information(cov),
+                     scan_matched ? pg::FactorKind::kScanMatch : pg::FactorKind::kOdometry,
+                     sequential_loss);
+  if (scan_matched && o.keep_dead_reckoning_factor) {
+    // Dead reckoning stays in the graph beside the scan match: a scan match that slid along
+    // a row of piles is outvoted instead of trusted.
+    m.graph.AddBetween(k - 1, k, ToPg(keyframe.T_prevkf_kf),
+                       Information(Floored(keyframe.covariance_prevkf_kf, o.min_factor_sigma_xy_m,
+                                           o.min_factor_sigma_yaw_rad)),
+                       pg::FactorKind::kOdometry);
+  }
+  const int chain_size = m.chain.NumKeyframes(0);
+  m.chain.AddKeyframe(0, consistency::Compose(m.chain.KeyframePose(0, chain_size - 1), T_prev_k),
+                      cov);
+
+  const auto proposed = m.ProposeLoops(k);
+  result.loops_registered = static_cast<int>(proposed.size());
+  if (!proposed.empty()) {
+    const consistency::Decision d = m.pcm.Add(proposed, m.chain);
+    for (std::uint64_t id : d.newly_accepted) {
+      LoopRecord& rec = m.loops[m.loop_by_id.at(id)];
+      if (rec.accepted) continue;
+      rec.accepted = true;
+      Eigen::Matrix3d loop_cov = Eigen::Matrix3d::Zero();
+      for (const auto& p : proposed) {
+        if (p.id == id) loop_cov = consistency::ToMatrix(p.covariance);
+      }
+      if (loop_cov.isZero()) {
+        loop_cov.diagonal() << o.loop_min_sigma_xy_m * o.loop_min_sigma_xy_m,
+            o.loop_min_sigma_xy_m * o.loop_min_sigma_xy_m,
+            o.loop_min_sigma_yaw_rad * o.loop_min_sigma_yaw_rad;
+      }
+      m.graph.AddBetween(rec.from_index, rec.to_index, ToPg(rec.T_from_to), Information(loop_cov),
+                         pg::FactorKind::kLoop, {pg::LossKind::kCauchy, o.loop_cauchy_scale});
+      ++result.loops_accepted;
+    }
+  }
+  pg::IncrementalOptions inc;
+  inc.window_size = o.window_size;
+  const pg::SolveSummary s = m.graph.Update(inc);
+  result.full_solve = s.full;
+  result.solve_time_s = s.time_s;
+  return result;
+}
+
+std::vector<KeyframeEstimate> LocalSlam::Trajectory() const {
+  std::vector<KeyframeEstimate> out;
+  for (const auto& kf : impl_->keyframes) {
+    out.push_back(KeyframeEstimate{kf.index, kf.time_s, impl_->Estimate(kf.index), kf.T_odom_body,
+                                   static_cast<int>(kf.points_body.size())});
+  }
+  return out;
+}
+
+const std::vector<LoopRecord>& LocalSlam::Loops() const { return impl_->loops; }
+
+std::vector<msgs::Point2> LocalSlam::MapPoints() const {
+  std::vector<msgs::Point2> out;
+  for (const auto& kf : impl_->keyframes) {
+    const msgs::Pose2 T = impl_->Estimate(kf.index);
+    const double c = std::cos(T.yaw_rad), s = std::sin(T.yaw_rad);
+    for (const auto& p : kf.points_body) {
+      out.push_back({c * p.x_m - s * p.y_m + T.x_m, s * p.x_m + c * p.y_m + T.y_m});
+    }
+  }
+  return out;
+}
+
+std::string LocalSlam::ToG2oText() const {
+  std::ostringstream os;
+  pg::WriteG2o(os, pg::ToG2o(impl_->graph));
+  return os.str();
+}
+
+}  // namespace draco::slam

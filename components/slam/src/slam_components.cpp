@@ -1,0 +1,194 @@
+// Runtime adapters: slam.LocalSlam (the pose-graph back end of one robot) and
+// eval.TrajectoryRecorder (ground truth to TUM). Outputs are written on Stop().
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <numbers>
+#include <string>
+
+#include "draco/eval/trajectory.hpp"
+#include "draco/graph/component.hpp"
+#include "draco/graph/executor.hpp"
+#include "draco/msgs/map.hpp"
+#include "draco/msgs/sensors.hpp"
+#include "draco/slam/local_slam.hpp"
+
+namespace draco::slam {
+namespace {
+
+using graph::Context;
+using graph::Spec;
+using graph::Status;
+
+std::string OutPath(const Context& ctx, const std::string& prefix, const std::string& name) {
+  return (std::filesystem::path(ctx.output_dir()) / (prefix + name)).string();
+}
+
+class LocalSlamComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Local SLAM back end: keyframes and sequential factors into a Ceres SE(2) pose graph, "
+        "intra-robot loop closures (ICP + PCM); writes trajectory, graph, loops and map.");
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", {.depth = 256, .doc = "keyframes"});
+    factor_ = spec.Input<msgs::SequentialFactor>(
+        "factor", {.depth = 256,
+                   .required = false,
+                   .doc = "scan-matching factors (k-1 -> k); unconnected: dead reckoning"});
+    trajectory_ = spec.Output<msgs::KeyframeTrajectory>("trajectory", "after every keyframe");
+    spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
+    spec.Param("loop_closure", &o_.loop_closure, {.doc = "search intra-robot loop closures"});
+    spec.Param("loop_min_index_gap", &o_.loop_min_index_gap,
+               {.doc = "keyframes at least this far apart", .min = 1});
+    spec.Param("loop_max_distance_m", &o_.loop_max_distance_m,
+               {.doc = "candidate search radius", .unit = "m", .min = 0});
+    spec.Param("loop_min_overlap", &o_.loop_min_overlap,
+               {.doc = "ICP overlap ratio needed", .min = 0, .max = 1});
+    spec.Param("loop_max_candidates", &o_.loop_max_candidates,
+               {.doc = "candidates registered per keyframe", .min = 0});
+    spec.Param("pcm_chi2_threshold", &o_.pcm_chi2_threshold,
+               {.doc = "pairwise consistency threshold (3 dof)", .min = 0});
+    spec.Param("pcm_min_clique_size", &o_.pcm_min_clique_size,
+               {.doc = "consistent loops needed before any is accepted", .min = 1});
+    spec.Param("keep_dead_reckoning_factor", &o_.keep_dead_reckoning_factor,
+               {.doc = "dead-reckoning factor beside every scan-matching factor"});
+    spec.Param(
+        "scan_match_cauchy_scale", &o_.scan_match_cauchy_scale,
+        {.doc = "Cauchy loss on scan-matching factors (0: none)", .unit = "sigma", .min = 0});
+    spec.Param("min_factor_sigma_xy_m", &o_.min_factor_sigma_xy_m,
+               {.doc = "floor on factor sigmas", .unit = "m", .min = 1e-6});
+    spec.Param("min_factor_sigma_yaw_rad", &o_.min_factor_sigma_yaw_rad,
+               {.doc = "floor on factor sigmas", .unit = "rad", .min = 1e-7});
+  }
+  Status Start(Context&) override {
+    slam_ = LocalSlam(o_);
+    return Status::Ok();
+  }
+  Status Process(Context& ctx) override {
+    for (auto& k : keyframe_.TakeAll()) pending_keyframes_.push_back(k);
+    for (auto& f : factor_.TakeAll()) pending_factors_[f->to_index] = f;
+    bool added = false;
+    while (!pending_keyframes_.empty()) {
+      const auto& kf = pending_keyframes_.front();
+      const msgs::SequentialFactor* factor = nullptr;
+      if (kf->index > 0 && factor_.connected()) {
+        auto it = pending_factors_.find(kf->index);
+        if (it == pending_factors_.end()) break;  // wait for its factor
+        factor = it->second.value.get();
+      }
+      try {
+        const StepResult r = slam_.AddKeyframe(*kf, factor);
+        loops_accepted_ += r.loops_accepted;
+      } catch (const std::exception& e) {
+        pending_keyframes_.pop_front();
+        return Status::Error(e.what());
+      }
+      pending_factors_.erase(kf->index);
+      pending_keyframes_.pop_front();
+      added = true;
+    }
+    if (added) Publish(ctx);
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (ctx.output_dir().empty()) return Status::Ok();
+    eval::Trajectory est, dr;
+    for (const auto& k : slam_.Trajectory()) {
+      est.push_back({k.time_s, k.T_map_kf.x_m, k.T_map_kf.y_m, k.T_map_kf.yaw_rad});
+      dr.push_back({k.time_s, k.T_odom_kf.x_m, k.T_odom_kf.y_m, k.T_odom_kf.yaw_rad});
+    }
+    std::string loops = "from_index,to_index,x_m,y_m,yaw_rad,overlap_ratio,accepted\n";
+    for (const auto& l : slam_.Loops()) {
+      char line[160];
+      std::snprintf(line, sizeof(line), "%d,%d,%.4f,%.4f,%.5f,%.3f,%d\n", l.from_index, l.to_index,
+                    l.T_from_to.x_m, l.T_from_to.y_m, l.T_from_to.yaw_rad, l.overlap_ratio,
+                    l.accepted ? 1 : 0);
+      loops += line;
+    }
+    std::string ply;
+    const auto points = slam_.MapPoints();
+    ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(points.size()) +
+          "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+    for (const auto& p : points) {
+      char line[64];
+      std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
+      ply += line;
+    }
+    try {
+      eval::WriteTum(OutPath(ctx, prefix_, "trajectory.tum"), est);
+      eval::WriteTum(OutPath(ctx, prefix_, "dead_reckoning.tum"), dr);
+    } catch (const std::exception& e) {
+      return Status::Fatal(e.what());
+    }
+    for (const auto& [name, text] :
+         {std::pair<std::string, std::string>{"pose_graph.g2o", slam_.ToG2oText()},
+          {"intra_loops.csv", loops},
+          {"map.ply", ply}}) {
+      if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, name), text)) {
+        return Status::Fatal("cannot write " + OutPath(ctx, prefix_, name));
+      }
+    }
+    return Status::Ok();
+  }
+
+ private:
+  void Publish(Context& ctx) {
+    msgs::KeyframeTrajectory t;
+    for (const auto& k : slam_.Trajectory()) {
+      t.keyframes.push_back({k.index, k.time_s, k.T_map_kf});
+    }
+    t.time_s = t.keyframes.empty() ? 0.0 : t.keyframes.back().time_s;
+    t.loops_accepted = loops_accepted_;
+    trajectory_.PublishAt(ctx.Now(), std::move(t));
+  }
+
+  LocalSlamOptions o_;
+  std::string prefix_;
+  LocalSlam slam_;
+  int loops_accepted_ = 0;
+  std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;
+  std::map<int, graph::Stamped<msgs::SequentialFactor>> pending_factors_;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::SequentialFactor> factor_;
+  graph::Out<msgs::KeyframeTrajectory> trajectory_;
+};
+DRACO_REGISTER_COMPONENT(LocalSlamComponent, "slam.LocalSlam")
+
+class TrajectoryRecorder final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc("Records ground-truth poses and writes them as TUM (yaw only) on Stop.");
+    truth_ = spec.Input<msgs::GroundTruthPose>("ground_truth", {.depth = 1024, .doc = "poses"});
+    spec.Param("file", &file_, {.doc = "TUM file name in the run folder"});
+    spec.Param("min_interval_s", &min_interval_s_,
+               {.doc = "keep at most one pose per interval", .unit = "s", .min = 0});
+  }
+  Status Process(Context&) override {
+    for (const auto& m : truth_.TakeAll()) {
+      if (!poses_.empty() && m->time_s - poses_.back().time_s < min_interval_s_) continue;
+      poses_.push_back({m->time_s, m->position_m[0], m->position_m[1], m->yaw_rad});
+    }
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (ctx.output_dir().empty()) return Status::Ok();
+    try {
+      eval::WriteTum((std::filesystem::path(ctx.output_dir()) / file_).string(), poses_);
+    } catch (const std::exception& e) {
+      return Status::Fatal(e.what());
+    }
+    return Status::Ok();
+  }
+
+ private:
+  std::string file_ = "ground_truth.tum";
+  double min_interval_s_ = 0.0;
+  eval::Trajectory poses_;
+  graph::In<msgs::GroundTruthPose> truth_;
+};
+DRACO_REGISTER_COMPONENT(TrajectoryRecorder, "eval.TrajectoryRecorder")
+
+}  // namespace
+}  // namespace draco::slam
