@@ -200,7 +200,8 @@ void RenderBarChart(const std::vector<std::string>& categories,
       }
     }
   }
-  y1 = o.y_max.value_or(y1 > y0 ? y1 + (y1 - y0) * 0.12 : 1.0);
+  // Headroom for the value labels and the legend box in the top right corner.
+  y1 = o.y_max.value_or(y1 > y0 ? y1 + (y1 - y0) * 0.35 : 1.0);
   y0 = o.y_min.value_or(y0);
   Range(&y0, &y1);
   const double n = std::max<std::size_t>(categories.size(), 1);
@@ -223,7 +224,7 @@ void RenderBarChart(const std::vector<std::string>& categories,
                    cv::Point(static_cast<int>(left + bar_w) - 1, static_cast<int>(bottom))),
           c, cv::FILLED);
       char label[32];
-      std::snprintf(label, sizeof(label), "%.3g", v);
+      std::snprintf(label, sizeof(label), std::abs(v) < 100 ? "%.2f" : "%.0f", v);
       detail::Text(img, label, {left + bar_w / 2.0, top - 5.0}, 0.4, detail::kAxis,
                    detail::Align::kCentre);
     }

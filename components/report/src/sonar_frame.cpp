@@ -39,6 +39,11 @@ void RenderSonarFrame(const msgs::SonarPing& ping, const std::vector<msgs::Point
   const double cx = o.width_px / 2.0;
   const double cy = top + pad + max_range * scale;  // sensor position (row)
 
+  // Display gamma: faint returns become visible; detection is not affected.
+  std::uint8_t gamma[256];
+  for (int i = 0; i < 256; ++i) {
+    gamma[i] = static_cast<std::uint8_t>(std::lround(255.0 * std::pow(i / 255.0, 0.6)));
+  }
   // Fan: nearest beam and range bin for each pixel.
   for (int v = 0; v < height; ++v) {
     auto* row = img.ptr<cv::Vec3b>(v);
@@ -58,7 +63,7 @@ void RenderSonarFrame(const msgs::SonarPing& ping, const std::vector<msgs::Point
       }
       const int bin = std::clamp(static_cast<int>(std::lround(r / ping.range_resolution_m)) - 1, 0,
                                  ping.num_ranges - 1);
-      const std::uint8_t g = ping.At(bin, beam);
+      const std::uint8_t g = gamma[ping.At(bin, beam)];
       row[u] = cv::Vec3b(g, g, g);
     }
   }
@@ -72,9 +77,10 @@ void RenderSonarFrame(const msgs::SonarPing& ping, const std::vector<msgs::Point
                   ring, 1, cv::LINE_AA);
       char label[32];
       std::snprintf(label, sizeof(label), "%g m", rr);
-      const double lx = cx - rr * scale * std::sin(b_hi) - 4.0;
-      const double ly = cy - rr * scale * std::cos(b_hi);
-      detail::Text(img, label, {lx, ly}, 0.4, ring, detail::Align::kRight);
+      // Inside the fan, just right of its left edge.
+      const double lx = cx - rr * scale * std::sin(b_hi) + 6.0;
+      const double ly = cy - rr * scale * std::cos(b_hi) - 4.0;
+      detail::Text(img, label, {lx, ly}, 0.4, ring, detail::Align::kLeft);
     }
   }
   for (const double b : {b_lo, b_hi}) {
@@ -87,13 +93,10 @@ void RenderSonarFrame(const msgs::SonarPing& ping, const std::vector<msgs::Point
   for (const auto& p : detections) {
     const cv::Point c(static_cast<int>(std::lround(cx - p.y_m * scale)),
                       static_cast<int>(std::lround(cy - p.x_m * scale)));
-    cv::circle(img, c, 4, mark, 1, cv::LINE_AA);
+    cv::circle(img, c, 3, mark, 1, cv::LINE_AA);
   }
   std::string caption = o.caption;
-  char count[64];
-  std::snprintf(count, sizeof(count), "%s%zu detections", caption.empty() ? "" : "   ",
-                detections.size());
-  caption += count;
+  if (caption.empty()) caption = std::to_string(detections.size()) + " detections";
   detail::Text(img, caption, {12.0, 24.0}, 0.6, detail::kWhite, detail::Align::kLeft, 1);
   detail::WritePng(img, png_path);
 }
