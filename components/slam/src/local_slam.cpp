@@ -236,6 +236,12 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
               o.min_factor_sigma_xy_m, o.min_factor_sigma_yaw_rad);
   const msgs::Pose2 initial = consistency::Compose(m.Estimate(k - 1), T_prev_k);
   m.graph.AddPose(k, ToPg(initial));
+  if (o.heading_prior_sigma_rad > 0) {
+    // The AHRS heading is absolute, its error bounded: a yaw-only prior (negligible weight on
+    // x, y) keeps the graph from rotating whole segments to satisfy a loop.
+    const double w = 1.0 / (o.heading_prior_sigma_rad * o.heading_prior_sigma_rad);
+    m.graph.AddPrior(k, ToPg(keyframe.T_odom_body), pg::Diagonal3(1e-9, 1e-9, w));
+  }
   const bool scan_matched = factor != nullptr && factor->scan_matched;
   const pg::RobustLoss sequential_loss =
       scan_matched && o.scan_match_cauchy_scale > 0

@@ -54,6 +54,10 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "consistent loops needed before any is accepted", .min = 1});
     spec.Param("keep_dead_reckoning_factor", &o_.keep_dead_reckoning_factor,
                {.doc = "dead-reckoning factor beside every scan-matching factor"});
+    spec.Param("heading_prior_sigma_rad", &o_.heading_prior_sigma_rad,
+               {.doc = "yaw prior from the AHRS heading on every keyframe (0: none)",
+                .unit = "rad",
+                .min = 0});
     spec.Param(
         "scan_match_cauchy_scale", &o_.scan_match_cauchy_scale,
         {.doc = "Cauchy loss on scan-matching factors (0: none)", .unit = "sigma", .min = 0});
@@ -115,6 +119,16 @@ class LocalSlamComponent final : public graph::Component {
       char line[64];
       std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
       ply += line;
+    }
+    std::string pcd =
+        "# .PCD v0.7 - draco local map (map frame, metres)\nVERSION 0.7\nFIELDS x y z\n"
+        "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " +
+        std::to_string(points.size()) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
+        std::to_string(points.size()) + "\nDATA ascii\n";
+    for (const auto& p : points) {
+      char line[64];
+      std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
+      pcd += line;
     }
     try {
       eval::WriteTum(OutPath(ctx, prefix_, "trajectory.tum"), est);

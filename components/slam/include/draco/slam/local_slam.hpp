@@ -26,6 +26,9 @@ struct LocalSlamOptions {
   // Keep the dead-reckoning increment as a factor beside each scan-matching factor, and put
   // a Cauchy loss (scale in sigmas; 0: none) on scan-matching factors.
   bool keep_dead_reckoning_factor = true;
+  // Yaw-only prior from the dead-reckoning heading (AHRS: absolute, bounded error) on every
+  // keyframe; 0 disables.
+  double heading_prior_sigma_rad = 0.0;
   double scan_match_cauchy_scale = 1.0;
 
   bool loop_closure = true;
