@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # One setup script behind both README commands.
-#   scripts/setup.sh demo   install missing packages, build, run the default graph
-#                           (extra arguments go to `draco run`, e.g. --out DIR)
+#   scripts/setup.sh demo   install missing packages, build, simulate the default marina
+#                           mission, replay it through local SLAM, evaluate, write the report
+#                           (extra arguments go to draco-local-slam, e.g. --set k=v;
+#                           MISSION=dir and RUN_DIR=dir choose the folders)
 #   scripts/setup.sh test   install missing packages, build with -Werror, format check, all tests
 #   scripts/setup.sh build  install missing packages and build only
 # Environment: BUILD_DIR (default build), JOBS (default nproc), DRACO_SANITIZE=ON for ASan/UBSan.
@@ -41,7 +43,10 @@ configure_and_build() {
   if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
     cmake -S . -B "$BUILD_DIR" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release
   fi
-  cmake -S . -B "$BUILD_DIR" -DDRACO_WERROR="$werror" -DDRACO_SANITIZE="${DRACO_SANITIZE:-OFF}" >/dev/null
+  # demo keeps the build folder's -Werror setting (no rebuild after a test run); test sets it.
+  local flags=(-DDRACO_SANITIZE="${DRACO_SANITIZE:-OFF}")
+  [ -n "$werror" ] && flags+=(-DDRACO_WERROR="$werror")
+  cmake -S . -B "$BUILD_DIR" "${flags[@]}" >/dev/null
   log "building in $BUILD_DIR with $JOBS jobs"
   cmake --build "$BUILD_DIR" -j "$JOBS"
 }
@@ -63,9 +68,20 @@ case "$mode" in
     configure_and_build OFF
     ;;
   demo)
+    # The main job: simulate the default three-robot marina mission (once; ~2.7 GB), replay
+    # every robot through local SLAM, evaluate against ground truth and write the report.
     install_packages
-    configure_and_build OFF
-    "$BUILD_DIR/apps/draco/draco" run "$@"
+    configure_and_build ""
+    mission=${MISSION:-runs/missions/marina}
+    run_dir=${RUN_DIR:-runs/demo-marina}
+    if [ ! -f "$mission/mission.yaml" ]; then
+      log "simulating config/missions/marina.yaml into $mission"
+      "$BUILD_DIR/apps/sim/draco-sim" config/missions/marina.yaml --out "$mission"
+    else
+      log "reusing the mission in $mission (delete it to simulate again)"
+    fi
+    "$BUILD_DIR/apps/local_slam/draco-local-slam" "$mission" --out "$run_dir" "$@"
+    "$BUILD_DIR/apps/eval/draco-eval" "$run_dir" --mission "$mission"
     ;;
   test)
     install_packages
