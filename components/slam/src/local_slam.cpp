@@ -128,6 +128,9 @@ struct LocalSlam::Impl {
           f.method = consistency::Method::kPcm;
           f.min_clique_size = o.pcm_min_clique_size;
           f.pairwise.chi2_threshold = o.pcm_chi2_threshold;
+          // No wall-clock budget: it would make replay depend on machine load. Intra-robot
+          // cliques are small (tens of loops).
+          f.time_budget_ms = 0.0;
           return f;
         }()) {}
 
