@@ -124,31 +124,9 @@ void DeterministicEngine::Call(std::uint32_t node, Reason reason, const std::str
   node_now_[node] = now_;
   Context ctx(n.id, &node_now_[node], &output_dir_);
   ctx.SetEvent(reason, timer);
-  Status status = Status::Ok();
-  const auto t0 = std::chrono::steady_clock::now();
-  try {
-    switch (reason) {
-      case Reason::kStart:
-        status = n.component->Start(ctx);
-        break;
-      case Reason::kStop:
-        status = n.component->Stop(ctx);
-        break;
-      default:
-        status = n.component->Process(ctx);
-        break;
-    }
-  } catch (const std::exception& e) {
-    status = Status::Error(std::string("exception: ") + e.what());
-  }
-  const double ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (reason != Reason::kStart && reason != Reason::kStop) recorder_.Record(node, ms);
-  if (status.code() == Status::Code::kFatal || (!status.ok() && (reason == Reason::kStart))) {
-    if (error_.empty()) error_ = n.id + ": " + status.message();
-  } else if (!status.ok()) {
-    if (recorder_.RecordError(node) && options_.log_errors) ctx.Log("error: " + status.message());
-  }
+  const std::string fatal =
+      internal::InvokeComponent(n, ctx, reason, recorder_, options_.log_errors);
+  if (!fatal.empty() && error_.empty()) error_ = fatal;
 }
 
 void DeterministicEngine::Dispatch(Event& ev) {

@@ -1,6 +1,8 @@
 #include <unistd.h>
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <numeric>
@@ -118,6 +120,37 @@ bool WriteFileAtomically(const std::string& path, const std::string& text) {
 }
 
 namespace internal {
+
+std::string InvokeComponent(Node& node, Context& ctx, Reason reason, StatsRecorder& recorder,
+                            bool log_errors) {
+  Status status = Status::Ok();
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    switch (reason) {
+      case Reason::kStart:
+        status = node.component->Start(ctx);
+        break;
+      case Reason::kStop:
+        status = node.component->Stop(ctx);
+        break;
+      default:
+        status = node.component->Process(ctx);
+        break;
+    }
+  } catch (const std::exception& e) {
+    status = Status::Error(std::string("exception: ") + e.what());
+  }
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (reason != Reason::kStart && reason != Reason::kStop) recorder.Record(node.index, ms);
+  if (status.code() == Status::Code::kFatal || (!status.ok() && reason == Reason::kStart)) {
+    return node.id + ": " + status.message();
+  }
+  if (!status.ok() && recorder.RecordError(node.index) && log_errors) {
+    ctx.Log("error: " + status.message());
+  }
+  return "";
+}
 
 RunStats StatsRecorder::Collect(const Graph& graph, const std::string& executor, double wall_s,
                                 Time mission_end) const {

@@ -42,4 +42,11 @@ class StatsRecorder {
   std::vector<PerNode> per_node_;
 };
 
+// Calls the component for `reason` with `ctx` (exceptions become errors), records the
+// processing time of Process() calls, counts and logs (rate-limited) recoverable errors.
+// Returns the message that must stop the run ("id: message": a fatal status, or any error
+// from Start()), or "" when the run goes on. Shared by both executors.
+std::string InvokeComponent(Node& node, Context& ctx, Reason reason, StatsRecorder& recorder,
+                            bool log_errors);
+
 }  // namespace draco::graph::internal
