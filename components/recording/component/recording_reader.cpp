@@ -3,6 +3,7 @@
 #include "draco/graph/component.hpp"
 #include "draco/msgs/sensors.hpp"
 #include "draco/recording/recording.hpp"
+#include "draco/sensor_outputs/sensor_outputs.hpp"
 
 namespace draco::recording {
 namespace {
@@ -19,12 +20,7 @@ class RecordingReaderComponent final : public graph::Component {
         "Replays one robot of a recorded mission (sonar pings, DVL, AHRS, depth, ground "
         "truth) in mission-time order. A missing, truncated or corrupt file stops the run "
         "with an error naming the file and the place.");
-    ping_ = spec.Output<msgs::SonarPing>("ping", "sonar pings (polar image, bearing table)");
-    dvl_ = spec.Output<msgs::DvlVelocity>("dvl", "DVL body velocity");
-    ahrs_ = spec.Output<msgs::Ahrs>("ahrs", "attitude and heading");
-    depth_ = spec.Output<msgs::Depth>("depth", "depth, positive down");
-    ground_truth_ = spec.Output<msgs::GroundTruthPose>(
-        "ground_truth", "true body pose in the world frame (only when the mission has it)");
+    outputs_.Declare(spec, "true body pose in the world frame (only when the mission has it)");
     spec.Param("recording", &recording_,
                {"mission directory (the folder holding mission.yaml)", "", {}, {}, {}});
     spec.Param(
@@ -64,7 +60,7 @@ class RecordingReaderComponent final : public graph::Component {
     const Time stamp = Time::FromSeconds(RecordTime(*next_));
     Record record = std::move(*next_);
     next_.reset();
-    std::visit([&](auto& message) { Publish(stamp, std::move(message)); }, record);
+    outputs_.Publish(stamp, std::move(record));
     ++published_;
     try {
       next_ = reader_->Next();
@@ -76,22 +72,12 @@ class RecordingReaderComponent final : public graph::Component {
   }
 
  private:
-  void Publish(Time t, msgs::SonarPing&& m) { ping_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::DvlVelocity&& m) { dvl_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::Ahrs&& m) { ahrs_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::Depth&& m) { depth_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::GroundTruthPose&& m) { ground_truth_.PublishAt(t, std::move(m)); }
-
   std::string recording_;
   std::string robot_;
   std::optional<RobotReader> reader_;
   std::optional<Record> next_;
   std::uint64_t published_ = 0;
-  graph::Out<msgs::SonarPing> ping_;
-  graph::Out<msgs::DvlVelocity> dvl_;
-  graph::Out<msgs::Ahrs> ahrs_;
-  graph::Out<msgs::Depth> depth_;
-  graph::Out<msgs::GroundTruthPose> ground_truth_;
+  sensor_outputs::SensorOutputs outputs_;
 };
 DRACO_REGISTER_COMPONENT(RecordingReaderComponent, "sonar.RecordingReader")
 

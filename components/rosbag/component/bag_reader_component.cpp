@@ -9,6 +9,7 @@
 #include "draco/graph/component.hpp"
 #include "draco/msgs/sensors.hpp"
 #include "draco/rosbag/bag_reader.hpp"
+#include "draco/sensor_outputs/sensor_outputs.hpp"
 
 namespace draco::rosbag {
 namespace {
@@ -31,12 +32,7 @@ class BagReaderComponent final : public graph::Component {
         "in mission time (header stamp - bag start), clamped to be non-negative and "
         "non-decreasing; each message keeps its own time_s. A missing, truncated or corrupt "
         "bag stops the run with an error naming the file, topic, message and field.");
-    ping_ = spec.Output<msgs::SonarPing>("ping", "sonar pings (polar image, bearing table)");
-    dvl_ = spec.Output<msgs::DvlVelocity>("dvl", "DVL body velocity");
-    ahrs_ = spec.Output<msgs::Ahrs>("ahrs", "attitude and heading");
-    depth_ = spec.Output<msgs::Depth>("depth", "depth, positive down");
-    ground_truth_ = spec.Output<msgs::GroundTruthPose>(
-        "ground_truth", "true body pose (only when the bag has the ground-truth topic)");
+    outputs_.Declare(spec, "true body pose (only when the bag has the ground-truth topic)");
     spec.Param("bag", &bag_, {"path of the ROS 1 bag", "", {}, {}, {}});
     spec.Param("sonar_topics", &options_.sonar_topics,
                {"sonar topics, the first present in the bag is read", "", {}, {}, {}});
@@ -87,7 +83,7 @@ class BagReaderComponent final : public graph::Component {
     last_stamp_ = stamp;
     Record record = std::move(*next_);
     next_.reset();
-    std::visit([&](auto& message) { Publish(stamp, std::move(message)); }, record.message);
+    outputs_.Publish(stamp, std::move(record.message));
     ++published_;
     Status status = Advance(ctx);
     if (status.ok() && !next_) {
@@ -116,12 +112,6 @@ class BagReaderComponent final : public graph::Component {
     return std::max(last_stamp_, Time::FromSeconds(std::max(0.0, MessageTime(record.message))));
   }
 
-  void Publish(Time t, msgs::SonarPing&& m) { ping_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::DvlVelocity&& m) { dvl_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::Ahrs&& m) { ahrs_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::Depth&& m) { depth_.PublishAt(t, std::move(m)); }
-  void Publish(Time t, msgs::GroundTruthPose&& m) { ground_truth_.PublishAt(t, std::move(m)); }
-
   std::string bag_;
   Options options_;
   bool skip_bad_messages_ = false;
@@ -130,11 +120,7 @@ class BagReaderComponent final : public graph::Component {
   Time last_stamp_;
   std::uint64_t published_ = 0;
   std::uint64_t skipped_ = 0;
-  graph::Out<msgs::SonarPing> ping_;
-  graph::Out<msgs::DvlVelocity> dvl_;
-  graph::Out<msgs::Ahrs> ahrs_;
-  graph::Out<msgs::Depth> depth_;
-  graph::Out<msgs::GroundTruthPose> ground_truth_;
+  sensor_outputs::SensorOutputs outputs_;
 };
 DRACO_REGISTER_COMPONENT(BagReaderComponent, "sonar.BagReader")
 
