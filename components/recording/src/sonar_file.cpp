@@ -95,12 +95,12 @@ void FinishRecord(std::vector<std::uint8_t>& out, std::size_t start) {
   PutU32(out, Crc32(out.data() + start, out.size() - start));
 }
 
-// zlib (RFC 1950) stream of data appended to out. Z_RLE: entropy coding plus runs, which is
-// what speckle and dark shadows offer; LZ77 matching costs time and finds little.
+// zlib (RFC 1950) stream of data appended to out. Z_HUFFMAN_ONLY: speckle offers entropy
+// coding and little else; on marina pings it is as small as Z_RLE (ratio 0.584) and faster.
 void DeflateAppend(const std::vector<std::uint8_t>& data, int level,
                    std::vector<std::uint8_t>& out) {
   z_stream zs{};
-  if (deflateInit2(&zs, level, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK) {
+  if (deflateInit2(&zs, level, Z_DEFLATED, 15, 8, Z_HUFFMAN_ONLY) != Z_OK) {
     throw std::runtime_error("zlib deflateInit2 failed");
   }
   const std::size_t start = out.size();

@@ -39,22 +39,31 @@ Scratch& ThreadScratch() {
 }
 
 // Smooth value noise in [-1, 1] on a grid of cell size 1 (for seabed patches).
-double ValueNoise(double x, double y, std::uint64_t salt) {
+inline double ValueNoise(double x, double y, std::uint64_t salt) {
   const double fx = std::floor(x);
   const double fy = std::floor(y);
   const auto ix = static_cast<std::int64_t>(fx);
   const auto iy = static_cast<std::int64_t>(fy);
+  // Mix64 inlined (the splitmix64 finaliser), each corner hashed once.
   auto h = [salt](std::int64_t a, std::int64_t b) {
-    const std::uint64_t k = Mix64(static_cast<std::uint64_t>(a) * 0x9E3779B1ULL ^
-                                  (static_cast<std::uint64_t>(b) << 32) ^ salt);
+    std::uint64_t k = (static_cast<std::uint64_t>(a) * 0x9E3779B1ULL ^
+                       (static_cast<std::uint64_t>(b) << 32) ^ salt) +
+                      0x9e3779b97f4a7c15ULL;
+    k = (k ^ (k >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    k = (k ^ (k >> 27)) * 0x94d049bb133111ebULL;
+    k ^= k >> 31;
     return static_cast<double>(k >> 11) * 0x1.0p-53 * 2.0 - 1.0;
   };
   double tx = x - fx;
   double ty = y - fy;
   tx = tx * tx * (3.0 - 2.0 * tx);
   ty = ty * ty * (3.0 - 2.0 * ty);
-  const double v0 = h(ix, iy) + tx * (h(ix + 1, iy) - h(ix, iy));
-  const double v1 = h(ix, iy + 1) + tx * (h(ix + 1, iy + 1) - h(ix, iy + 1));
+  const double h00 = h(ix, iy);
+  const double h10 = h(ix + 1, iy);
+  const double h01 = h(ix, iy + 1);
+  const double h11 = h(ix + 1, iy + 1);
+  const double v0 = h00 + tx * (h10 - h00);
+  const double v1 = h01 + tx * (h11 - h01);
   return v0 + ty * (v1 - v0);
 }
 
