@@ -1,0 +1,96 @@
+// The inter-robot front end of the evaluation apps (draco-frontend-eval, draco-team-eval):
+// local SLAM of every robot in-process, object maps from the final keyframes, and for an
+// ordered robot pair object-graph matching, scan selection and window registration, each
+// judged against ground truth.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "draco/eval/trajectory.hpp"
+#include "draco/msgs/loops.hpp"
+#include "draco/msgs/objects.hpp"
+#include "draco/recording/recording.hpp"
+#include "draco/registration/registration.hpp"
+
+namespace draco::frontend {
+
+using msgs::Pose2;
+
+struct Robot {
+  std::string name;
+  int id = 0;
+  std::vector<registration::KeyframeScan> kfs;  // sorted by index
+  std::vector<Pose2> truth_kf;                  // world pose at each keyframe time
+  std::vector<char> has_truth;
+  Pose2 T_world_map;  // Umeyama alignment of the keyframes to the truth
+  msgs::ObjectMap objects;
+  double slam_wall_s = 0.0;
+};
+
+// Keyframe cache (binary, this program's own format).
+void SaveKeyframes(const std::string& path, const std::vector<registration::KeyframeScan>& kfs);
+bool LoadKeyframes(const std::string& path, std::vector<registration::KeyframeScan>* kfs);
+
+// Ground truth at time t (linear in position, shortest arc in yaw); false outside its span or
+// across a gap over 0.5 s.
+bool TruthAt(const eval::Trajectory& truth, double t, Pose2* pose);
+
+struct SlamRunOptions {
+  std::string graph_path;              // local-SLAM graph YAML
+  std::vector<std::string> overrides;  // component.param=value
+  bool reuse = false;                  // load OUT/slam/<robot>.keyframes.bin when present
+  int jobs = 1;                        // robots in parallel (1: see docs/front-end.md)
+};
+
+// Local SLAM of every robot of the mission (graph outputs in out_dir/slam: trajectory,
+// dead reckoning, pose_graph.g2o, ... per robot), then truth at the keyframes, the map-to-world
+// alignment and the object map from the final keyframes. Returns the robots in mission order;
+// *wall_s is the local-SLAM wall time.
+std::vector<Robot> RunRobots(const std::string& mission, const recording::MissionInfo& info,
+                             const std::string& out_dir, const SlamRunOptions& options,
+                             double* wall_s = nullptr);
+
+struct PairOptions {
+  registration::SelectionOptions selection;
+  registration::RegistrationOptions registration;  // min_overlap is applied by the caller
+  std::vector<int> windows{0, 1, 3};
+  // Where matching is not right, seed registration with the ground-truth transform and the
+  // true object pairs.
+  bool oracle = false;
+  double tp_m = 1.5;
+  double tp_deg = 15.0;
+};
+
+struct Registration {
+  int window = 0;
+  int own_kf = 0;
+  int team_kf = 0;
+  int source_points = 0;
+  bool valid = false;  // accepted by RegisterScan (ICP valid, >= min points)
+  double overlap = 0.0;
+  double err_m = -1.0;  // against ground truth; -1 without truth
+  double err_deg = -1.0;
+  bool tp = false;  // within tp_m and tp_deg
+  bool oracle = false;
+  msgs::InterRobotLoop loop;
+};
+
+struct PairResult {
+  int shared_objects = 0;   // own objects with a teammate object within 2 m in the world
+  Pose2 T_true;             // ground-truth T_a_b between the two map frames
+  msgs::ObjectMatch match;  // as used (the oracle's when oracle_used)
+  bool matched = false;     // matching itself answered kMatched
+  bool correct = false;     // ... within 2 m and 10 deg of T_true
+  double err_m = 0.0, err_deg = 0.0;
+  bool oracle_used = false;
+  std::size_t requests = 0;
+  std::vector<Registration> registrations;
+  double registration_time_s = 0.0;
+};
+
+// Matching, selection and registration of teammate B's scans against own robot A.
+PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& options);
+
+}  // namespace draco::frontend

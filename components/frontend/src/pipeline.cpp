@@ -1,0 +1,301 @@
+#include "draco/frontend/pipeline.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "draco/graph/component.hpp"
+#include "draco/graph/executor.hpp"
+#include "draco/graph/graph.hpp"
+#include "draco/msgs/map.hpp"
+#include "draco/objects/graph_matcher.hpp"
+#include "draco/objects/object_mapper.hpp"
+
+namespace draco::frontend {
+namespace {
+
+namespace reg = draco::registration;
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+// ---- Capture: keyframes and the last optimised trajectory of one run ----------------------
+struct Captured {
+  std::map<int, graph::Stamped<msgs::Keyframe>> keyframes;
+  std::shared_ptr<const msgs::KeyframeTrajectory> trajectory;
+};
+std::mutex g_capture_mutex;
+std::map<int, Captured> g_captured;  // by slot
+
+class Capture final : public graph::Component {
+ public:
+  void Declare(graph::Spec& spec) override {
+    spec.Doc("frontend-eval: keeps keyframes and the newest optimised trajectory.");
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", {.depth = 1024, .doc = "keyframes"});
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>(
+        "trajectory", {.delivery = graph::Delivery::kLatest, .doc = "trajectory"});
+    spec.Param("slot", &slot_, {.doc = "capture slot"});
+  }
+  graph::Status Process(graph::Context&) override {
+    std::lock_guard lock(g_capture_mutex);
+    auto& c = g_captured[slot_];
+    for (auto& k : keyframe_.TakeAll()) c.keyframes[k->index] = k;
+    for (auto& t : trajectory_.TakeAll()) c.trajectory = t.value;
+    return graph::Status::Ok();
+  }
+
+ private:
+  int slot_ = 0;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
+};
+DRACO_REGISTER_COMPONENT(Capture, "frontend_eval.Capture")
+
+std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const std::string& name,
+                                            int slot, const std::string& graph_path,
+                                            const std::string& run_dir,
+                                            const std::vector<std::string>& overrides) {
+  std::ifstream in(graph_path);
+  if (!in) throw std::runtime_error("cannot read " + graph_path);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  yaml +=
+      "\n  - id: capture\n    type: frontend_eval.Capture\n"
+      "    inputs: { keyframe: keyframes/keyframe, trajectory: slam/trajectory }\n"
+      "    params: { slot: " +
+      std::to_string(slot) + " }\n";
+  graph::LoadOptions load;
+  load.overrides = {"reader.recording=" + mission, "reader.robot=" + name,
+                    "slam.prefix=" + name + ".", "truth.file=" + name + ".ground_truth.tum"};
+  load.overrides.insert(load.overrides.end(), overrides.begin(), overrides.end());
+  auto g = graph::LoadGraphString(yaml, graph_path, load,
+                                  std::filesystem::path(graph_path).parent_path().string());
+  graph::RunOptions run;
+  run.output_dir = run_dir;
+  run.log_errors = false;
+  const auto result = graph::RunDeterministic(*g, run);
+  if (!result.ok) throw std::runtime_error(name + ": " + result.error);
+  std::lock_guard lock(g_capture_mutex);
+  const auto& c = g_captured[slot];
+  std::vector<reg::KeyframeScan> out;
+  if (!c.trajectory) return out;
+  for (const auto& k : c.trajectory->keyframes) {
+    const auto it = c.keyframes.find(k.index);
+    if (it == c.keyframes.end()) continue;
+    out.push_back({k.index, k.time_s, k.T_map_kf, it->second->points_body});
+  }
+  return out;
+}
+
+void AttachTruth(const std::string& mission, Robot* r) {
+  const auto truth = eval::ReadTum(mission + "/" + r->name + "/groundtruth.tum");
+  eval::Trajectory est, tru;
+  r->truth_kf.assign(r->kfs.size(), Pose2{});
+  r->has_truth.assign(r->kfs.size(), 0);
+  for (std::size_t i = 0; i < r->kfs.size(); ++i) {
+    Pose2 p;
+    if (!TruthAt(truth, r->kfs[i].time_s, &p)) continue;
+    r->truth_kf[i] = p;
+    r->has_truth[i] = 1;
+    const auto& e = r->kfs[i].T_map_kf;
+    est.push_back({r->kfs[i].time_s, e.x_m, e.y_m, e.yaw_rad});
+    tru.push_back({r->kfs[i].time_s, p.x_m, p.y_m, p.yaw_rad});
+  }
+  const auto U = eval::AlignUmeyama(est, tru);
+  r->T_world_map = {U.x_m, U.y_m, U.yaw_rad};
+}
+
+}  // namespace
+
+void SaveKeyframes(const std::string& path, const std::vector<reg::KeyframeScan>& kfs) {
+  std::ofstream f(path, std::ios::binary);
+  const auto put = [&](const auto& v) { f.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
+  put(static_cast<std::uint64_t>(kfs.size()));
+  for (const auto& k : kfs) {
+    put(k.index);
+    put(k.time_s);
+    put(k.T_map_kf);
+    put(static_cast<std::uint64_t>(k.points_kf.size()));
+    f.write(reinterpret_cast<const char*>(k.points_kf.data()),
+            static_cast<std::streamsize>(k.points_kf.size() * sizeof(msgs::Point2)));
+  }
+}
+
+bool LoadKeyframes(const std::string& path, std::vector<reg::KeyframeScan>* kfs) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  const auto get = [&](auto& v) { f.read(reinterpret_cast<char*>(&v), sizeof(v)); };
+  std::uint64_t n = 0;
+  get(n);
+  kfs->resize(n);
+  for (auto& k : *kfs) {
+    std::uint64_t m = 0;
+    get(k.index);
+    get(k.time_s);
+    get(k.T_map_kf);
+    get(m);
+    k.points_kf.resize(m);
+    f.read(reinterpret_cast<char*>(k.points_kf.data()),
+           static_cast<std::streamsize>(m * sizeof(msgs::Point2)));
+  }
+  return static_cast<bool>(f);
+}
+
+bool TruthAt(const eval::Trajectory& truth, double t, Pose2* pose) {
+  if (truth.empty() || t < truth.front().time_s || t > truth.back().time_s) return false;
+  auto it = std::lower_bound(truth.begin(), truth.end(), t,
+                             [](const auto& p, double v) { return p.time_s < v; });
+  if (it == truth.begin()) {
+    *pose = {it->x_m, it->y_m, it->yaw_rad};
+    return true;
+  }
+  const auto& b = *it;
+  const auto& a = *(it - 1);
+  const double dt = b.time_s - a.time_s;
+  if (dt > 0.5) return false;
+  const double u = dt > 0 ? (t - a.time_s) / dt : 0.0;
+  *pose = {a.x_m + u * (b.x_m - a.x_m), a.y_m + u * (b.y_m - a.y_m),
+           reg::WrapAngle(a.yaw_rad + u * reg::WrapAngle(b.yaw_rad - a.yaw_rad))};
+  return true;
+}
+
+std::vector<Robot> RunRobots(const std::string& mission, const recording::MissionInfo& info,
+                             const std::string& out_dir, const SlamRunOptions& options,
+                             double* wall_s) {
+  std::filesystem::create_directories(out_dir + "/slam");
+  std::vector<Robot> robots(info.robots.size());
+  std::vector<std::thread> threads;
+  std::mutex err_mutex;
+  std::string error;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::size_t next = 0;
+  std::mutex next_mutex;
+  const auto worker = [&] {
+    for (;;) {
+      std::size_t i;
+      {
+        std::lock_guard lock(next_mutex);
+        if (next >= robots.size()) return;
+        i = next++;
+      }
+      Robot& r = robots[i];
+      r.name = info.robots[i].name;
+      r.id = info.robots[i].id;
+      const std::string cache = out_dir + "/slam/" + r.name + ".keyframes.bin";
+      try {
+        const auto s = std::chrono::steady_clock::now();
+        if (!(options.reuse && LoadKeyframes(cache, &r.kfs))) {
+          std::fprintf(stderr, "local SLAM of %s ...\n", r.name.c_str());
+          r.kfs = RunLocalSlam(mission, r.name, static_cast<int>(i), options.graph_path,
+                               out_dir + "/slam", options.overrides);
+          SaveKeyframes(cache, r.kfs);
+        }
+        r.slam_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s).count();
+      } catch (const std::exception& e) {
+        std::lock_guard lock(err_mutex);
+        error = e.what();
+      }
+    }
+  };
+  for (int j = 0; j < std::max(1, options.jobs); ++j) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+  if (!error.empty()) throw std::runtime_error(error);
+  if (wall_s)
+    *wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  for (auto& r : robots) {
+    AttachTruth(mission, &r);
+    objects::ObjectMapper mapper;
+    for (const auto& k : r.kfs) mapper.AddKeyframe(k.index, k.T_map_kf, k.points_kf);
+    r.objects = mapper.Objects(r.id, r.kfs.empty() ? 0.0 : r.kfs.back().time_s);
+  }
+  return robots;
+}
+
+PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& options) {
+  PairResult out;
+  // True shared objects: object centres within 2 m of each other in the world.
+  std::vector<msgs::ObjectPair> true_pairs;
+  for (const auto& oa : A.objects.objects) {
+    const auto pa = reg::Apply(A.T_world_map, oa.center);
+    for (const auto& ob : B.objects.objects) {
+      const auto pb = reg::Apply(B.T_world_map, ob.center);
+      if (std::hypot(pa.x_m - pb.x_m, pa.y_m - pb.y_m) <= 2.0) {
+        ++out.shared_objects;
+        true_pairs.push_back({oa.id, ob.id, 0.0});
+        break;
+      }
+    }
+  }
+  out.T_true = reg::Between(A.T_world_map, B.T_world_map);
+  out.match = objects::MatchObjectMaps(A.objects, B.objects);
+  out.matched = out.match.status == msgs::MatchStatus::kMatched;
+  const Pose2 d = reg::Between(out.T_true, out.match.T_a_b);
+  out.err_m = std::hypot(d.x_m, d.y_m);
+  out.err_deg = std::abs(d.yaw_rad) / kDeg;
+  out.correct = out.matched && out.err_m <= 2.0 && out.err_deg <= 10.0;
+  if (options.oracle && !out.correct && !true_pairs.empty()) {
+    // Registration as if matching had found the true transform and the true pairs.
+    out.match.status = msgs::MatchStatus::kMatched;
+    out.match.T_a_b = out.T_true;
+    out.match.pairs = true_pairs;
+    out.oracle_used = true;
+  }
+
+  std::vector<reg::KeyframeInfo> ia_info, ib_info;
+  for (const auto& k : A.kfs) {
+    ia_info.push_back({k.index, k.T_map_kf, static_cast<int>(k.points_kf.size())});
+  }
+  for (const auto& k : B.kfs) {
+    ib_info.push_back({k.index, k.T_map_kf, static_cast<int>(k.points_kf.size())});
+  }
+  const auto requests =
+      reg::SelectScanRequests(A.objects, B.objects, out.match, ia_info, ib_info, options.selection);
+  out.requests = requests.size();
+  std::map<int, int> pos_a, pos_b;
+  for (std::size_t i = 0; i < A.kfs.size(); ++i) pos_a[A.kfs[i].index] = static_cast<int>(i);
+  for (std::size_t i = 0; i < B.kfs.size(); ++i) pos_b[B.kfs[i].index] = static_cast<int>(i);
+  for (const auto& req : requests) {
+    const int jb = pos_b.at(req.teammate_keyframe);
+    for (const int own_index : req.candidates) {
+      const int ka = pos_a.at(own_index);
+      const Pose2 seed = reg::SeedPose(A.kfs[ka].T_map_kf, out.match.T_a_b, B.kfs[jb].T_map_kf);
+      const bool truth_ok = A.has_truth[ka] && B.has_truth[jb];
+      const Pose2 rel_true = reg::Between(A.truth_kf[ka], B.truth_kf[jb]);
+      for (const int w : options.windows) {
+        auto o = options.registration;
+        o.window = w;
+        const auto s = std::chrono::steady_clock::now();
+        const auto r = reg::RegisterScan(A.kfs, ka, B.kfs[jb].points_kf, seed, o, A.id, B.id,
+                                         req.teammate_keyframe);
+        out.registration_time_s +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - s).count();
+        const Pose2 e = reg::Between(rel_true, r.loop.T_ownkf_teammatekf);
+        const double em = std::hypot(e.x_m, e.y_m), ed = std::abs(e.yaw_rad) / kDeg;
+        Registration row;
+        row.window = w;
+        row.own_kf = own_index;
+        row.team_kf = req.teammate_keyframe;
+        row.source_points = static_cast<int>(B.kfs[jb].points_kf.size());
+        row.valid = r.status == reg::RegistrationStatus::kAccepted;
+        row.overlap = r.loop.overlap;
+        row.err_m = truth_ok ? em : -1.0;
+        row.err_deg = truth_ok ? ed : -1.0;
+        row.tp = truth_ok && em <= options.tp_m && ed <= options.tp_deg;
+        row.oracle = out.oracle_used;
+        row.loop = r.loop;
+        out.registrations.push_back(row);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace draco::frontend

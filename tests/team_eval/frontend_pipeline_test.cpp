@@ -1,0 +1,75 @@
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include "draco/frontend/pipeline.hpp"
+
+namespace fe = draco::frontend;
+
+TEST(FrontendPipeline, TruthAtInterpolatesAndRefusesGaps) {
+  draco::eval::Trajectory truth{{0.0, 0.0, 0.0, 3.0},
+                                {0.4, 2.0, -4.0, -3.0},   // yaw crosses +-pi
+                                {2.0, 2.0, -4.0, -3.0}};  // 1.6 s gap
+  draco::msgs::Pose2 p;
+  ASSERT_TRUE(fe::TruthAt(truth, 0.2, &p));
+  EXPECT_NEAR(p.x_m, 1.0, 1e-12);
+  EXPECT_NEAR(p.y_m, -2.0, 1e-12);
+  // Shortest arc from 3.0 to -3.0 passes through pi.
+  EXPECT_NEAR(std::abs(p.yaw_rad), std::numbers::pi, 1e-9);
+  ASSERT_TRUE(fe::TruthAt(truth, 0.0, &p));
+  EXPECT_NEAR(p.yaw_rad, 3.0, 1e-12);
+  EXPECT_FALSE(fe::TruthAt(truth, 1.0, &p));   // inside the gap
+  EXPECT_FALSE(fe::TruthAt(truth, -0.1, &p));  // before the span
+  EXPECT_FALSE(fe::TruthAt(truth, 2.1, &p));   // after
+}
+
+TEST(FrontendPipeline, KeyframeCacheRoundTrip) {
+  std::vector<draco::registration::KeyframeScan> kfs(2);
+  kfs[0] = {0, 1.5, {1.0, 2.0, 0.3}, {{0.5, 0.25}, {-1.0, 4.0}}};
+  kfs[1] = {1, 2.5, {-1.0, 0.0, -0.3}, {}};
+  const auto path = (std::filesystem::temp_directory_path() /
+                     ("frontend_cache_" + std::to_string(::getpid()) + ".bin"))
+                        .string();
+  fe::SaveKeyframes(path, kfs);
+  std::vector<draco::registration::KeyframeScan> back;
+  ASSERT_TRUE(fe::LoadKeyframes(path, &back));
+  std::filesystem::remove(path);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[1].index, 1);
+  EXPECT_DOUBLE_EQ(back[0].time_s, 1.5);
+  EXPECT_DOUBLE_EQ(back[0].T_map_kf.yaw_rad, 0.3);
+  ASSERT_EQ(back[0].points_kf.size(), 2u);
+  EXPECT_DOUBLE_EQ(back[0].points_kf[1].y_m, 4.0);
+  EXPECT_TRUE(back[1].points_kf.empty());
+  EXPECT_FALSE(fe::LoadKeyframes(path + ".missing", &back));
+}
+
+TEST(FrontendPipeline, NoObjectsMeansNoMatchAndNoRegistration) {
+  fe::Robot a, b;
+  a.id = 0;
+  b.id = 1;
+  a.name = "a";
+  b.name = "b";
+  b.T_world_map = {10.0, 0.0, 0.5};
+  for (int k = 0; k < 3; ++k) {
+    a.kfs.push_back({k, 1.0 * k, {1.0 * k, 0.0, 0.0}, {{1.0, 1.0}}});
+    b.kfs.push_back({k, 1.0 * k, {1.0 * k, 0.0, 0.0}, {{1.0, 1.0}}});
+  }
+  a.truth_kf.assign(3, {});
+  b.truth_kf.assign(3, {});
+  a.has_truth.assign(3, 1);
+  b.has_truth.assign(3, 1);
+  fe::PairOptions o;
+  o.oracle = true;  // no true shared object: the oracle has nothing to give either
+  const auto r = fe::MatchAndRegister(a, b, o);
+  EXPECT_FALSE(r.matched);
+  EXPECT_FALSE(r.oracle_used);
+  EXPECT_EQ(r.shared_objects, 0);
+  EXPECT_EQ(r.requests, 0u);
+  EXPECT_TRUE(r.registrations.empty());
+  EXPECT_NEAR(r.T_true.x_m, 10.0, 1e-12);
+  EXPECT_NEAR(r.T_true.yaw_rad, 0.5, 1e-12);
+}
