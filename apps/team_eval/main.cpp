@@ -242,7 +242,9 @@ int main(int argc, char** argv) {
         const bool have = pr.match.status == draco::msgs::MatchStatus::kMatched;
         std::string how = pr.oracle_used
                               ? "oracle"
-                              : (have ? (pr.correct ? "matching" : "matching(wrong)") : "nothing");
+                              : (have ? (pr.correct ? "matching" : "matching(wrong)")
+                                      : std::string("nothing(") +
+                                            draco::msgs::MatchStatusName(pr.match.status) + ")");
         // The oracle also places teammates with no true shared object (no scans requested).
         const bool oracle_guess = oracle && !have;
         if (oracle_guess) how = "oracle(no-scans)";
