@@ -15,6 +15,7 @@
 
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
+#include "draco/graph/progress.hpp"
 
 namespace {
 
@@ -107,6 +108,8 @@ int main(int argc, char** argv) {
 
     std::cerr << "draco: running " << graph_path << " (" << graph->nodes.size() << " components, "
               << graph->settings.executor << " executor) into " << options.output_dir << "\n";
+    draco::graph::ProgressPrinter progress("draco: " + graph->settings.name, 0.0);
+    options.progress = [&](draco::graph::Time t) { progress.Update(t); };
     const auto result = draco::graph::Run(*graph, options);
     std::cout << result.stats.ToTable();
     const std::string stats_path = options.output_dir + "/runtime_stats.json";

@@ -198,7 +198,17 @@ bool DeterministicEngine::StopRequested() {
 }
 
 void DeterministicEngine::RunUntil(Time limit) {
+  auto last_progress = std::chrono::steady_clock::now();
+  std::uint64_t events = 0;
   while (!failed() && !queue_.empty() && !StopRequested()) {
+    if (options_.progress && (++events & 255) == 0) {
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - last_progress).count() >=
+          options_.progress_period_s) {
+        last_progress = now;
+        options_.progress(now_);
+      }
+    }
     if (queue_.top().stamp > limit) break;
     Event ev = queue_.top();
     queue_.pop();

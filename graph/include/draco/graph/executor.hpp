@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,10 @@ struct RunOptions {
   Time until = Time::Max();                           // stop after this mission time
   const std::atomic<bool>* stop_requested = nullptr;  // e.g. set by a SIGINT handler
   bool log_errors = true;
+  // Called by the deterministic executor about every progress_period_s of wall time with the
+  // mission time reached (for progress displays; it cannot change the run).
+  std::function<void(Time)> progress;
+  double progress_period_s = 0.5;
 };
 
 struct RunResult {
