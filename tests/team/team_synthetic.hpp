@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "../consistency/synthetic.hpp"
 #include "draco/team/team_pgo.hpp"
 
 namespace draco::team::synthetic {
@@ -40,36 +41,11 @@ struct Mission {
   std::vector<bool> inlier;               // per loop
 };
 
+// The consistency tests' survey layout (tests/consistency/synthetic.hpp), as pose-graph poses.
 inline std::vector<Pose2> Survey(int robot, int n, double step) {
-  std::vector<std::pair<double, double>> wp;
-  for (int r = 0; r <= 4; ++r) {
-    if (robot == 2) {
-      const double x = 15.0 * r;
-      const bool up = r % 2 == 0;
-      wp.push_back({x, up ? 0.0 : 40.0});
-      wp.push_back({x, up ? 40.0 : 0.0});
-    } else {
-      const double y = robot == 0 ? 10.0 * r : 40.0 - 10.0 * r;
-      const bool right = (r % 2 == 0) == (robot == 0);
-      wp.push_back({right ? 0.0 : 60.0, y});
-      wp.push_back({right ? 60.0 : 0.0, y});
-    }
-  }
   std::vector<Pose2> poses;
-  std::size_t seg = 0;
-  double along = 0.0;
-  while (static_cast<int>(poses.size()) < n) {
-    const auto [x0, y0] = wp[seg % wp.size()];
-    const auto [x1, y1] = wp[(seg + 1) % wp.size()];
-    const double len = std::hypot(x1 - x0, y1 - y0);
-    if (along > len) {
-      along -= len;
-      ++seg;
-      continue;
-    }
-    const double yaw = std::atan2(y1 - y0, x1 - x0);
-    poses.push_back({x0 + along * std::cos(yaw), y0 + along * std::sin(yaw), yaw});
-    along += step;
+  for (const auto& p : consistency::synthetic::Survey(robot, n, step)) {
+    poses.push_back({p.x_m, p.y_m, p.yaw_rad});
   }
   return poses;
 }
