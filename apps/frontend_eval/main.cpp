@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
   int default_window = ro.window;
   std::string metric = "point";
   double tp_m = 1.5, tp_deg = 15.0;
+  draco::objects::ObjectMapperOptions mapper;
+  draco::objects::MatcherOptions matcher;
+  std::string affinity;  // empty: the default
+  double over_time_s = 0.0;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/frontend-<mission>)");
   app.add_option("--graph", graph_path, "local-SLAM graph YAML");
@@ -78,7 +82,28 @@ int main(int argc, char** argv) {
   app.add_option("--max-correction", ro.max_correction_m, "gate on the ICP correction m (0 off)");
   app.add_option("--threshold", default_threshold, "the default overlap threshold to report");
   app.add_option("--window", default_window, "the default window to report");
+  app.add_option("--eps", mapper.dbscan.eps_m, "DBSCAN eps m");
+  app.add_option("--min-samples", mapper.dbscan.min_points, "DBSCAN min points");
+  app.add_option("--n-min", mapper.min_points, "object filter: min points");
+  app.add_option("--d-min", mapper.min_length_m, "object filter: min long side m");
+  app.add_flag("--rect-center", mapper.rectangle_center, "object centre = rectangle centre");
+  app.add_option("--affinity", affinity, "code | paper | relative (default)");
+  app.add_option("--mu", matcher.mu_per_m, "affinity mu per m");
+  app.add_option("--relative-shape", matcher.relative_shape_per_m,
+                 "relative affinity: shape tolerance growth per m of length");
+  app.add_option("--min-affinity", matcher.min_affinity, "sparse affinity: smallest entry");
+  app.add_option("--min-shape", matcher.min_shape_similarity,
+                 "sparse affinity: smallest shape term");
+  app.add_option("--min-inliers", matcher.min_inliers, "RANSAC min inliers");
+  app.add_option("--min-assignments", matcher.min_assignments, "min assignments");
+  app.add_option("--min-objects", matcher.min_objects, "min objects per map");
+  app.add_option("--ransac-m", matcher.ransac_threshold_m, "RANSAC threshold m");
+  app.add_option("--over-time", over_time_s,
+                 "also match the maps of both robots at the same time every S seconds");
   CLI11_PARSE(app, argc, argv);
+  if (affinity == "paper") matcher.affinity = draco::objects::AffinityForm::kPaper;
+  if (affinity == "relative") matcher.affinity = draco::objects::AffinityForm::kRelative;
+  if (affinity == "code") matcher.affinity = draco::objects::AffinityForm::kCode;
   ro.icp.metric =
       metric == "line" ? draco::icp::Metric::kPointToLine : draco::icp::Metric::kPointToPoint;
   ro.min_overlap = 0.0;  // thresholds are applied below
@@ -98,7 +123,7 @@ int main(int argc, char** argv) {
     if (max_yaw_deg > 0) sel.candidate_max_yaw_rad = max_yaw_deg * kDeg;
 
     // Local SLAM per robot (or the cache), truth, object maps.
-    fe::SlamRunOptions slam_options{graph_path, overrides, reuse, jobs};
+    fe::SlamRunOptions slam_options{graph_path, overrides, reuse, jobs, mapper};
     double slam_s = 0.0;
     std::vector<fe::Robot> robots = fe::RunRobots(mission, info, out_dir, slam_options, &slam_s);
 
@@ -145,6 +170,7 @@ int main(int argc, char** argv) {
         po.selection = sel;
         po.registration = ro;
         po.oracle = oracle;
+        po.matcher = matcher;
         po.tp_m = tp_m;
         po.tp_deg = tp_deg;
         const auto pr = fe::MatchAndRegister(A, B, po);
@@ -175,6 +201,51 @@ int main(int argc, char** argv) {
                       oracle_used ? 1 : 0);
         match_csv += line;
       }
+    }
+
+    // Time-consistent matching.
+    if (over_time_s > 0) {
+      std::string ot_csv =
+          "own,teammate,time_s,own_objects,teammate_objects,shared_objects,status,inliers,err_m,"
+          "err_deg,correct\n";
+      int pairs_right = 0, pairs_wrong = 0, answers = 0, answers_right = 0;
+      std::printf("\ntime-consistent matching every %.0f s (own <- teammate):\n", over_time_s);
+      for (std::size_t ia = 0; ia < robots.size(); ++ia) {
+        for (std::size_t ib = 0; ib < robots.size(); ++ib) {
+          if (ia == ib) continue;
+          const auto series =
+              fe::MatchOverTime(robots[ia], robots[ib], mapper, matcher, over_time_s);
+          int matched = 0, right = 0, max_shared = 0;
+          double first_right = -1;
+          for (const auto& m : series) {
+            matched += m.matched;
+            right += m.correct;
+            max_shared = std::max(max_shared, m.shared);
+            if (m.correct && first_right < 0) first_right = m.time_s;
+            char line[256];
+            std::snprintf(line, sizeof(line), "%s,%s,%.1f,%d,%d,%d,%s,%d,%.3f,%.3f,%d\n",
+                          robots[ia].name.c_str(), robots[ib].name.c_str(), m.time_s, m.objects_a,
+                          m.objects_b, m.shared, draco::msgs::MatchStatusName(m.match.status),
+                          m.match.num_inliers, m.matched ? m.err_m : -1.0,
+                          m.matched ? m.err_deg : -1.0, m.correct ? 1 : 0);
+            ot_csv += line;
+          }
+          answers += matched;
+          answers_right += right;
+          pairs_right += right > 0;
+          pairs_wrong += matched > right;
+          std::printf(
+              "  %-8s <- %-8s steps %3zu, max shared %2d, matched %3d, right %3d, wrong %3d, "
+              "first right %.0f s\n",
+              robots[ia].name.c_str(), robots[ib].name.c_str(), series.size(), max_shared, matched,
+              right, matched - right, first_right);
+        }
+      }
+      std::printf(
+          "time-consistent: %d of %zu pairs matched right at least once, %d pairs with a "
+          "wrong match; answers %d right of %d matched\n",
+          pairs_right, robots.size() * (robots.size() - 1), pairs_wrong, answers_right, answers);
+      draco::graph::WriteFileAtomically(out_dir + "/matching_over_time.csv", ot_csv);
     }
 
     // Tables.

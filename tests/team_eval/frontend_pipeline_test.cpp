@@ -73,3 +73,40 @@ TEST(FrontendPipeline, NoObjectsMeansNoMatchAndNoRegistration) {
   EXPECT_NEAR(r.T_true.x_m, 10.0, 1e-12);
   EXPECT_NEAR(r.T_true.yaw_rad, 0.5, 1e-12);
 }
+
+// A robot whose keyframe k (time 10 k) sees a 4 m x 1 m block of points 20 m apart from the
+// previous one.
+fe::Robot BlockRobot(int id, const draco::msgs::Pose2& T_world_map, int keyframes) {
+  fe::Robot r;
+  r.id = id;
+  r.T_world_map = T_world_map;
+  for (int k = 0; k < keyframes; ++k) {
+    draco::registration::KeyframeScan s;
+    s.index = k;
+    s.time_s = 10.0 * k;
+    s.T_map_kf = {20.0 * k, 0.0, 0.0};
+    for (int i = 0; i < 41; ++i) {
+      for (int j = 0; j < 6; ++j) s.points_kf.push_back({0.1 * i, 0.2 * j});
+    }
+    r.kfs.push_back(s);
+  }
+  return r;
+}
+
+TEST(FrontendPipeline, ObjectMapsUpToATimeAndSharedObjects) {
+  const auto a = BlockRobot(0, {0.0, 0.0, 0.0}, 6);
+  const draco::objects::ObjectMapperOptions mapper;  // d_min 1 m: the 4 m blocks are objects
+  EXPECT_EQ(fe::BuildObjectMap(a, mapper).objects.size(), 6u);
+  EXPECT_EQ(fe::BuildObjectMap(a, mapper, 25.0).objects.size(), 3u);  // keyframes 0, 1, 2
+  // b's map frame is a's shifted by 20 m: its blocks lie on a's blocks 1..6 in the world.
+  const auto b = BlockRobot(1, {20.0, 0.0, 0.0}, 6);
+  EXPECT_EQ(fe::SharedObjects(a, fe::BuildObjectMap(a, mapper), b, fe::BuildObjectMap(b, mapper)),
+            5);
+  // Matched over time: a straight row of identical blocks is ambiguous, so only the status
+  // and the bookkeeping are checked here.
+  const auto series = fe::MatchOverTime(a, b, mapper, {}, 10.0);
+  ASSERT_EQ(series.size(), 5u);  // t = 10 .. 50
+  EXPECT_EQ(series.back().objects_a, 6);
+  EXPECT_EQ(series.back().shared, 5);
+  EXPECT_EQ(series.front().match.status, draco::msgs::MatchStatus::kTooFewObjects);
+}

@@ -212,11 +212,74 @@ std::vector<Robot> RunRobots(const std::string& mission, const recording::Missio
 
   for (auto& r : robots) {
     AttachTruth(mission, &r);
-    objects::ObjectMapper mapper;
-    for (const auto& k : r.kfs) mapper.AddKeyframe(k.index, k.T_map_kf, k.points_kf);
-    r.objects = mapper.Objects(r.id, r.kfs.empty() ? 0.0 : r.kfs.back().time_s);
+    r.objects = BuildObjectMap(r, options.mapper);
   }
   return robots;
+}
+
+msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOptions& options,
+                               double until_s) {
+  objects::ObjectMapper mapper(options);
+  double last_s = 0.0;
+  for (const auto& k : r.kfs) {
+    if (k.time_s > until_s) break;
+    mapper.AddKeyframe(k.index, k.T_map_kf, k.points_kf);
+    last_s = k.time_s;
+  }
+  return mapper.Objects(r.id, last_s);
+}
+
+int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,
+                  const msgs::ObjectMap& b, double radius_m) {
+  int n = 0;
+  for (const auto& oa : a.objects) {
+    const auto pa = reg::Apply(A.T_world_map, oa.center);
+    for (const auto& ob : b.objects) {
+      const auto pb = reg::Apply(B.T_world_map, ob.center);
+      if (std::hypot(pa.x_m - pb.x_m, pa.y_m - pb.y_m) <= radius_m) {
+        ++n;
+        break;
+      }
+    }
+  }
+  return n;
+}
+
+std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
+                                      const objects::ObjectMapperOptions& mapper,
+                                      const objects::MatcherOptions& matcher, double step_s) {
+  std::vector<TimedMatch> out;
+  if (A.kfs.empty() || B.kfs.empty() || step_s <= 0) return out;
+  const double t0 = std::max(A.kfs.front().time_s, B.kfs.front().time_s);
+  const double t1 = std::min(A.kfs.back().time_s, B.kfs.back().time_s);
+  const Pose2 T_true = reg::Between(A.T_world_map, B.T_world_map);
+  // Incremental maps: keyframes are added as time advances.
+  objects::ObjectMapper ma(mapper), mb(mapper);
+  std::size_t ia = 0, ib = 0;
+  for (double t = t0 + step_s; t <= t1 + 1e-9; t += step_s) {
+    while (ia < A.kfs.size() && A.kfs[ia].time_s <= t) {
+      ma.AddKeyframe(A.kfs[ia].index, A.kfs[ia].T_map_kf, A.kfs[ia].points_kf);
+      ++ia;
+    }
+    while (ib < B.kfs.size() && B.kfs[ib].time_s <= t) {
+      mb.AddKeyframe(B.kfs[ib].index, B.kfs[ib].T_map_kf, B.kfs[ib].points_kf);
+      ++ib;
+    }
+    TimedMatch m;
+    m.time_s = t;
+    const auto a = ma.Objects(A.id, t), b = mb.Objects(B.id, t);
+    m.objects_a = static_cast<int>(a.objects.size());
+    m.objects_b = static_cast<int>(b.objects.size());
+    m.shared = SharedObjects(A, a, B, b);
+    m.match = objects::MatchObjectMaps(a, b, matcher);
+    m.matched = m.match.status == msgs::MatchStatus::kMatched;
+    const Pose2 d = reg::Between(T_true, m.match.T_a_b);
+    m.err_m = std::hypot(d.x_m, d.y_m);
+    m.err_deg = std::abs(d.yaw_rad) / kDeg;
+    m.correct = m.matched && m.err_m <= 2.0 && m.err_deg <= 10.0;
+    out.push_back(m);
+  }
+  return out;
 }
 
 PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& options) {
@@ -235,7 +298,7 @@ PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& o
     }
   }
   out.T_true = reg::Between(A.T_world_map, B.T_world_map);
-  out.match = objects::MatchObjectMaps(A.objects, B.objects);
+  out.match = objects::MatchObjectMaps(A.objects, B.objects, options.matcher);
   out.matched = out.match.status == msgs::MatchStatus::kMatched;
   const Pose2 d = reg::Between(out.T_true, out.match.T_a_b);
   out.err_m = std::hypot(d.x_m, d.y_m);

@@ -22,10 +22,19 @@ double Distance(const Point2& p, const Point2& q) {
 }
 
 // Shape term of one vertex pair: the code's s(i,k) = exp(-2 (|dl| + |db|)); the paper's
-// exp(-(|dl| + |db|)).
-double Shape(const msgs::Object& p, const msgs::Object& q, AffinityForm form) {
+// exp(-(|dl| + |db|)); kRelative: the code's with the difference divided by
+// 1 + relative_shape_per_m * max(l_i, l_k) (partial views of large objects differ more).
+double Shape(const msgs::Object& p, const msgs::Object& q, const MatcherOptions& o) {
   const double d = std::abs(p.length_m - q.length_m) + std::abs(p.breadth_m - q.breadth_m);
-  return std::exp(-(form == AffinityForm::kCode ? 2.0 : 1.0) * d);
+  switch (o.affinity) {
+    case AffinityForm::kPaper:
+      return std::exp(-d);
+    case AffinityForm::kRelative:
+      return std::exp(-2.0 * d / (1.0 + o.relative_shape_per_m * std::max(p.length_m, q.length_m)));
+    case AffinityForm::kCode:
+      break;
+  }
+  return std::exp(-2.0 * d);
 }
 
 struct EdgeB {
@@ -48,7 +57,7 @@ SparseAffinity BuildAffinity(const ObjectMap& a, const ObjectMap& b,
   std::vector<double> shape(std::size_t(na) * nb, 0.0);
   for (int i = 0; i < na; ++i) {
     for (int k = 0; k < nb; ++k) {
-      const double s = Shape(a.objects[i], b.objects[k], options.affinity);
+      const double s = Shape(a.objects[i], b.objects[k], options);
       if (s < options.min_shape_similarity) continue;
       out.candidate_of[std::size_t(i) * nb + k] = static_cast<std::int32_t>(out.candidates.size());
       out.candidates.emplace_back(i, k);
@@ -70,7 +79,7 @@ SparseAffinity BuildAffinity(const ObjectMap& a, const ObjectMap& b,
     return x.w < y.w || (x.w == y.w && (x.k < y.k || (x.k == y.k && x.l < y.l)));
   });
   const double window = std::log(1.0 / options.min_affinity) / options.mu_per_m;
-  const bool code = options.affinity == AffinityForm::kCode;
+  const bool code = options.affinity != AffinityForm::kPaper;  // symmetric forms
   // Each unordered pair {i, j} of map a with each ordered pair (k, l) of map b gives the
   // symmetric pair of entries ((i,k), (j,l)) and ((j,l), (i,k)).
   for (int i = 0; i < na; ++i) {
@@ -152,10 +161,10 @@ std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
     const std::size_t n = std::size_t(na) * nb;
     if (n > 4096) throw std::invalid_argument("AssignmentWeights: dense needs n_a n_b <= 4096");
     std::vector<double> m(n * n, 0.0);
-    const bool code = options.affinity == AffinityForm::kCode;
+    const bool code = options.affinity != AffinityForm::kPaper;  // symmetric forms
     for (int i = 0; i < na; ++i) {
       for (int k = 0; k < nb; ++k) {
-        const double s_ik = Shape(a.objects[i], b.objects[k], options.affinity);
+        const double s_ik = Shape(a.objects[i], b.objects[k], options);
         for (int j = 0; j < na; ++j) {
           if (j == i) continue;
           const double w_ij = Distance(a.objects[i].center, a.objects[j].center);
@@ -164,7 +173,7 @@ std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
             const double w_kl = Distance(b.objects[k].center, b.objects[l].center);
             const double e = std::exp(-options.mu_per_m * std::abs(w_ij - w_kl));
             m[(std::size_t(i) * nb + k) * n + std::size_t(j) * nb + l] =
-                code ? e * s_ik * Shape(a.objects[j], b.objects[l], options.affinity) : e * s_ik;
+                code ? e * s_ik * Shape(a.objects[j], b.objects[l], options) : e * s_ik;
           }
         }
       }

@@ -11,6 +11,8 @@
 #include "draco/eval/trajectory.hpp"
 #include "draco/msgs/loops.hpp"
 #include "draco/msgs/objects.hpp"
+#include "draco/objects/graph_matcher.hpp"
+#include "draco/objects/object_mapper.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 
@@ -38,11 +40,16 @@ bool LoadKeyframes(const std::string& path, std::vector<registration::KeyframeSc
 bool TruthAt(const eval::Trajectory& truth, double t, Pose2* pose);
 
 struct SlamRunOptions {
-  std::string graph_path;              // local-SLAM graph YAML
-  std::vector<std::string> overrides;  // component.param=value
-  bool reuse = false;                  // load OUT/slam/<robot>.keyframes.bin when present
-  int jobs = 1;                        // robots in parallel (1: see docs/front-end.md)
+  std::string graph_path;               // local-SLAM graph YAML
+  std::vector<std::string> overrides;   // component.param=value
+  bool reuse = false;                   // load OUT/slam/<robot>.keyframes.bin when present
+  int jobs = 1;                         // robots in parallel (1: see docs/front-end.md)
+  objects::ObjectMapperOptions mapper;  // object map from the final keyframes
 };
+
+// Object map from the keyframes with time_s <= until_s (final optimised poses).
+msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOptions& options,
+                               double until_s = 1e300);
 
 // Local SLAM of every robot of the mission (graph outputs in out_dir/slam: trajectory,
 // dead reckoning, pose_graph.g2o, ... per robot), then truth at the keyframes, the map-to-world
@@ -56,6 +63,7 @@ struct PairOptions {
   registration::SelectionOptions selection;
   registration::RegistrationOptions registration;  // min_overlap is applied by the caller
   std::vector<int> windows{0, 1, 3};
+  objects::MatcherOptions matcher;
   // Where matching is not right, seed registration with the ground-truth transform and the
   // true object pairs.
   bool oracle = false;
@@ -92,5 +100,23 @@ struct PairResult {
 
 // Matching, selection and registration of teammate B's scans against own robot A.
 PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& options);
+
+// True shared objects: own objects with a teammate object within radius_m in the world.
+int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,
+                  const msgs::ObjectMap& b, double radius_m = 2.0);
+
+// Time-consistent matching: both robots' object maps built from the keyframes up to time t
+// (final optimised poses), matched every step_s of the shared mission clock, as a running
+// system that matches at every exchange would. Each answer is judged against the truth.
+struct TimedMatch {
+  double time_s = 0.0;
+  int objects_a = 0, objects_b = 0, shared = 0;
+  msgs::ObjectMatch match;
+  bool matched = false, correct = false;
+  double err_m = 0.0, err_deg = 0.0;
+};
+std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
+                                      const objects::ObjectMapperOptions& mapper,
+                                      const objects::MatcherOptions& matcher, double step_s);
 
 }  // namespace draco::frontend

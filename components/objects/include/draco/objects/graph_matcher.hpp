@@ -23,15 +23,23 @@
 
 namespace draco::objects {
 
-enum class AffinityForm { kCode, kPaper };
+// kCode: the reference code's symmetric form; kPaper: the paper's equation; kRelative: the
+// code's form with a shape tolerance growing with object size (see relative_shape_per_m).
+enum class AffinityForm { kCode, kPaper, kRelative };
 
 struct MatcherOptions {
-  AffinityForm affinity = AffinityForm::kCode;
-  double mu_per_m = 8.0;  // the code's 8 (the paper says 4)
+  // Defaults measured on the default missions (docs/front-end.md, "Matching on the default
+  // missions"); the reference code: kCode, mu 8, 5 m, 4 inliers.
+  AffinityForm affinity = AffinityForm::kRelative;
+  double mu_per_m = 2.0;  // the code's 8 (the paper says 4)
+  // kRelative: |dl| + |db| is divided by 1 + this * max(l_i, l_k).
+  double relative_shape_per_m = 0.25;
   // Sparsity: candidate (i, k) needs its shape term >= this; entries below min_affinity
   // are dropped.
-  double min_shape_similarity = 1e-3;
-  double min_affinity = 1e-4;
+  // (1e-2 each: same matches on the default missions as 1e-3 / 1e-4, within the speed goal at
+  // mu 2 and the relative shape term.)
+  double min_shape_similarity = 1e-2;
+  double min_affinity = 1e-2;
   bool dense = false;  // the reference's dense matrix (small maps only; for comparison)
   int max_power_iterations = 300;
   double power_tolerance = 1e-9;  // max change of a component of the unit eigenvector
@@ -41,9 +49,9 @@ struct MatcherOptions {
   // reference keeps all min(n_a, n_b) assignments; they are outliers for RANSAC.
   bool keep_zero_weight_assignments = false;
   int min_assignments = 5;
-  int min_inliers = 4;
-  double ransac_threshold_m = 5.0;
-  int ransac_iterations = 1000;  // all pairs of assignments when there are fewer pairs
+  int min_inliers = 5;              // the reference: 4
+  double ransac_threshold_m = 3.0;  // the reference: 5
+  int ransac_iterations = 1000;     // all pairs of assignments when there are fewer pairs
   std::uint64_t seed = 1;
   double rematch_distance_m = 5.0;
 };
