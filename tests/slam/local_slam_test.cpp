@@ -179,6 +179,75 @@ TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   EXPECT_TRUE(slam.Loops().empty());
 }
 
+TEST(LocalSlam, LoopCovarianceFloorsAndInflates) {
+  msgs::Covariance3 icp{};  // an overconfident ICP covariance: all zero
+  LocalSlamOptions o;
+  o.loop_min_sigma_xy_m = 0.1;
+  o.loop_min_sigma_yaw_rad = 0.01;
+  // Default: the floors only.
+  msgs::Covariance3 c = LoopCovariance(icp, 0.2, 0.6, o);
+  EXPECT_NEAR(c[0], 0.01, 1e-12);
+  EXPECT_NEAR(c[4], 0.01, 1e-12);
+  EXPECT_NEAR(c[8], 1e-4, 1e-12);
+  // Residual term: xy variance 20 * rmse^2 = 0.8, the whole matrix scaled by 80.
+  o.loop_rmse_cov_scale = 20.0;
+  c = LoopCovariance(icp, 0.2, 1.0, o);
+  EXPECT_NEAR(c[0], 0.8, 1e-9);
+  EXPECT_NEAR(c[8], 80 * 1e-4, 1e-9);
+  // A small residual never lowers the floors.
+  c = LoopCovariance(icp, 0.01, 1.0, o);
+  EXPECT_NEAR(c[0], 0.01, 1e-12);
+  // Overlap term: (1 / 0.5)^2 = 4.
+  o.loop_rmse_cov_scale = 0.0;
+  o.loop_overlap_cov_power = 2.0;
+  c = LoopCovariance(icp, 0.2, 0.5, o);
+  EXPECT_NEAR(c[0], 0.04, 1e-12);
+  EXPECT_NEAR(c[8], 4e-4, 1e-12);
+}
+
+TEST(LocalSlam, SubmapSourceAndResidualCovarianceStillCloseLoops) {
+  std::mt19937 rng(3);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  icp::SequentialScanMatcher matcher;
+  LocalSlamOptions o;
+  o.loop_source_half_width = 2;
+  o.loop_rmse_cov_scale = 20.0;
+  o.loop_max_rmse_m = 1.0;
+  o.min_dr_sigma_xy_m = 0.05;
+  LocalSlam slam(o);
+  int accepted = 0;
+  for (const auto& kf : mission.keyframes) {
+    const auto factor = matcher.AddKeyframe(kf);
+    accepted += slam.AddKeyframe(kf, factor ? &*factor : nullptr).loops_accepted;
+  }
+  const double dr_ate = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
+  const double slam_ate = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+  EXPECT_GT(accepted, 3);
+  EXPECT_LT(slam_ate, 0.5 * dr_ate) << "DR " << dr_ate << " m, SLAM " << slam_ate << " m";
+  for (const auto& loop : slam.Loops()) EXPECT_LE(loop.rmse_m, 1.0);
+}
+
+TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
+  std::mt19937 rng(4);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  LocalSlamOptions o;
+  o.loop_closure = false;
+  o.heading_bias_sigma_rad = 0.15;
+  LocalSlam slam(o);
+  for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
+  // Dead-reckoning factors and its own heading agree: the bias nodes stay out of the way and
+  // the keyframe ids are unchanged.
+  const auto t = slam.Trajectory();
+  ASSERT_EQ(t.size(), mission.keyframes.size());
+  for (const auto& k : t) {
+    EXPECT_NEAR(k.T_map_kf.x_m, k.T_odom_kf.x_m, 1e-2);
+    EXPECT_NEAR(k.T_map_kf.y_m, k.T_odom_kf.y_m, 1e-2);
+    EXPECT_NEAR(std::remainder(k.T_map_kf.yaw_rad - k.T_odom_kf.yaw_rad, 2 * M_PI), 0.0, 1e-3);
+  }
+}
+
 TEST(LocalSlam, RejectsOutOfOrderKeyframes) {
   LocalSlam slam;
   msgs::Keyframe kf;

@@ -111,6 +111,21 @@ msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target
 
 }  // namespace
 
+msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double rmse_m,
+                                 double overlap_ratio, const LocalSlamOptions& o) {
+  Eigen::Matrix3d cov = Floored(icp_covariance, o.loop_min_sigma_xy_m, o.loop_min_sigma_yaw_rad);
+  if (o.loop_rmse_cov_scale > 0) {
+    // Scale the whole covariance (keeping its shape) until the xy variance reaches
+    // loop_rmse_cov_scale * rmse^2.
+    const double xy = 0.5 * (cov(0, 0) + cov(1, 1));
+    cov *= std::max(1.0, o.loop_rmse_cov_scale * rmse_m * rmse_m / xy);
+  }
+  if (o.loop_overlap_cov_power > 0 && overlap_ratio > 0) {
+    cov *= std::pow(1.0 / std::min(1.0, overlap_ratio), o.loop_overlap_cov_power);
+  }
+  return consistency::FromMatrix(cov);
+}
+
 struct LocalSlam::Impl {
   LocalSlamOptions options;
   pg::PoseGraph2d graph;
@@ -136,6 +151,43 @@ struct LocalSlam::Impl {
 
   msgs::Pose2 Estimate(int index) const { return FromPg(graph.Pose(index)); }
 
+  // Heading-bias node of keyframe k (negative ids; only its yaw is used: its x, y are pinned
+  // by a prior and tied to nothing else).
+  static pg::PoseId BiasId(int k) { return -2 - static_cast<pg::PoseId>(k); }
+  static constexpr pg::PoseId kBiasMeanId = -1;
+  void AddHeadingBias(int k) {
+    const auto& o = options;
+    const msgs::Keyframe& kf = keyframes[static_cast<std::size_t>(k)];
+    const pg::Pose2 anchor{kf.T_odom_body.x_m, kf.T_odom_body.y_m, 0.0};
+    const double tiny = 1e-9;
+    const double sb = o.heading_bias_sigma_rad;
+    if (k == 0) {
+      // The mean of the heading error: free (the AHRS error at keyframe 0, which the graph
+      // frame absorbs, is unknown too), so only deviations from it are penalised.
+      graph.AddPose(kBiasMeanId, anchor);
+      graph.AddPrior(kBiasMeanId, anchor, pg::Diagonal3(1.0, 1.0, 1e-6));
+    }
+    graph.AddPose(BiasId(k), anchor);
+    graph.AddPrior(BiasId(k), anchor, pg::Diagonal3(1.0, 1.0, tiny));
+    const msgs::Keyframe& first = keyframes.front();
+    graph.AddBetween(kBiasMeanId, BiasId(k),
+                     {kf.T_odom_body.x_m - first.T_odom_body.x_m,
+                      kf.T_odom_body.y_m - first.T_odom_body.y_m, 0.0},
+                     pg::Diagonal3(tiny, tiny, 1.0 / (sb * sb)), pg::FactorKind::kOdometry);
+    const double sm = o.heading_meas_sigma_rad;
+    graph.AddBetween(BiasId(k), k, {0.0, 0.0, kf.T_odom_body.yaw_rad},
+                     pg::Diagonal3(tiny, tiny, 1.0 / (sm * sm)), pg::FactorKind::kOdometry);
+    if (k > 0) {
+      const msgs::Keyframe& prev = keyframes[static_cast<std::size_t>(k - 1)];
+      const double dt = std::max(1e-3, kf.time_s - prev.time_s);
+      const double sw = sb * std::sqrt(2.0 * dt / std::max(1e-3, o.heading_bias_tau_s));
+      graph.AddBetween(BiasId(k - 1), BiasId(k),
+                       {kf.T_odom_body.x_m - prev.T_odom_body.x_m,
+                        kf.T_odom_body.y_m - prev.T_odom_body.y_m, 0.0},
+                       pg::Diagonal3(tiny, tiny, 1.0 / (sw * sw)), pg::FactorKind::kOdometry);
+    }
+  }
+
   // Registers keyframe k against the submaps around older keyframes near its estimate.
   std::vector<msgs::InterRobotLoop> ProposeLoops(int k) {
     std::vector<msgs::InterRobotLoop> out;
@@ -152,6 +204,15 @@ struct LocalSlam::Impl {
       }
     }
     std::sort(candidates.begin(), candidates.end());
+    // Source: keyframe k and up to loop_source_half_width keyframes before it, in k's frame.
+    icp::Cloud2 source = clouds[k];
+    for (int i = std::max(0, k - o.loop_source_half_width); i < k; ++i) {
+      const msgs::Pose2 T_k_i = consistency::Between(T_map_k, Estimate(i));
+      const double c = std::cos(T_k_i.yaw_rad), s = std::sin(T_k_i.yaw_rad);
+      for (const auto& p : clouds[i]) {
+        source.emplace_back(c * p.x() - s * p.y() + T_k_i.x_m, s * p.x() + c * p.y() + T_k_i.y_m);
+      }
+    }
     // Skip candidates next to one already tried: their submaps overlap.
     std::vector<int> tried;
     for (const auto& [d, j] : candidates) {
@@ -173,9 +234,10 @@ struct LocalSlam::Impl {
       }
       const msgs::Pose2 guess = consistency::Between(T_map_j, T_map_k);
       const msgs::Pose2 seed =
-          o.seed_search_m > 0 ? CorrelativeSeed(clouds[k], target, guess, o) : guess;
-      const icp::IcpResult r = icp::AlignIcp(clouds[k], target, seed);
+          o.seed_search_m > 0 ? CorrelativeSeed(source, target, guess, o) : guess;
+      const icp::IcpResult r = icp::AlignIcp(source, target, seed);
       if (!r.valid || r.overlap_ratio < o.loop_min_overlap) continue;
+      if (o.loop_max_rmse_m > 0 && r.rmse_m > o.loop_max_rmse_m) continue;
       const msgs::Pose2 correction = consistency::Between(guess, r.T_target_source);
       if (std::hypot(correction.x_m, correction.y_m) > o.loop_max_correction_m ||
           std::abs(correction.yaw_rad) > o.loop_max_correction_rad) {
@@ -189,11 +251,10 @@ struct LocalSlam::Impl {
       loop.own_keyframe = j;
       loop.teammate_keyframe = k;
       loop.T_ownkf_teammatekf = r.T_target_source;
-      loop.covariance = consistency::FromMatrix(
-          Floored(r.covariance, o.loop_min_sigma_xy_m, o.loop_min_sigma_yaw_rad));
+      loop.covariance = LoopCovariance(r.covariance, r.rmse_m, r.overlap_ratio, o);
       loop.overlap = r.overlap_ratio;
       loop_by_id[loop.id] = loops.size();
-      loops.push_back(LoopRecord{j, k, r.T_target_source, r.overlap_ratio, false});
+      loops.push_back(LoopRecord{j, k, r.T_target_source, r.overlap_ratio, r.rmse_m, false});
       out.push_back(loop);
     }
     return out;
@@ -231,6 +292,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
         0, ToPg(keyframe.T_odom_body),
         pg::InformationFromSigmas(o.prior_sigma_xy_m, o.prior_sigma_xy_m, o.prior_sigma_yaw_rad));
     m.chain.AddKeyframe(0, keyframe.T_odom_body, Eigen::Matrix3d::Zero());
+    if (o.heading_bias_sigma_rad > 0) m.AddHeadingBias(0);
     return result;
   }
   const msgs::Pose2 T_prev_k = factor != nullptr ? factor->T_from_to : keyframe.T_prevkf_kf;
@@ -243,8 +305,12 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
     // The AHRS heading is absolute, its error bounded: a yaw-only prior (negligible weight on
     // x, y) keeps the graph from rotating whole segments to satisfy a loop.
     const double w = 1.0 / (o.heading_prior_sigma_rad * o.heading_prior_sigma_rad);
-    m.graph.AddPrior(k, ToPg(keyframe.T_odom_body), pg::Diagonal3(1e-9, 1e-9, w));
+    m.graph.AddPrior(k, ToPg(keyframe.T_odom_body), pg::Diagonal3(1e-9, 1e-9, w),
+                     o.heading_prior_cauchy_scale > 0
+                         ? pg::RobustLoss{pg::LossKind::kCauchy, o.heading_prior_cauchy_scale}
+                         : pg::RobustLoss{});
   }
+  if (o.heading_bias_sigma_rad > 0) m.AddHeadingBias(k);
   const bool scan_matched = factor != nullptr && factor->scan_matched;
   const pg::RobustLoss sequential_loss =
       scan_matched && o.scan_match_cauchy_scale > 0
@@ -256,10 +322,13 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   if (scan_matched && o.keep_dead_reckoning_factor) {
     // Dead reckoning stays in the graph beside the scan match: a scan match that slid along
     // a row of piles is outvoted instead of trusted.
-    m.graph.AddBetween(k - 1, k, ToPg(keyframe.T_prevkf_kf),
-                       Information(Floored(keyframe.covariance_prevkf_kf, o.min_factor_sigma_xy_m,
-                                           o.min_factor_sigma_yaw_rad)),
-                       pg::FactorKind::kOdometry);
+    m.graph.AddBetween(
+        k - 1, k, ToPg(keyframe.T_prevkf_kf),
+        Information(Floored(
+            keyframe.covariance_prevkf_kf,
+            o.min_dr_sigma_xy_m >= 0 ? o.min_dr_sigma_xy_m : o.min_factor_sigma_xy_m,
+            o.min_dr_sigma_yaw_rad >= 0 ? o.min_dr_sigma_yaw_rad : o.min_factor_sigma_yaw_rad)),
+        pg::FactorKind::kOdometry);
   }
   const int chain_size = m.chain.NumKeyframes(0);
   m.chain.AddKeyframe(0, consistency::Compose(m.chain.KeyframePose(0, chain_size - 1), T_prev_k),
@@ -288,7 +357,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
     }
   }
   pg::IncrementalOptions inc;
-  inc.window_size = o.window_size;
+  inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
   const pg::SolveSummary s = m.graph.Update(inc);
   result.full_solve = s.full;
   result.solve_time_s = s.time_s;

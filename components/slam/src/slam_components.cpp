@@ -58,6 +58,16 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "yaw prior from the AHRS heading on every keyframe (0: none)",
                 .unit = "rad",
                 .min = 0});
+    spec.Param("heading_bias_sigma_rad", &o_.heading_bias_sigma_rad,
+               {.doc = "AHRS heading with a correlated error state: its sigma (0: off)",
+                .unit = "rad",
+                .min = 0});
+    spec.Param("heading_bias_tau_s", &o_.heading_bias_tau_s,
+               {.doc = "correlation time of the AHRS heading error", .unit = "s", .min = 1e-3});
+    spec.Param("heading_meas_sigma_rad", &o_.heading_meas_sigma_rad,
+               {.doc = "white noise of the AHRS heading", .unit = "rad", .min = 1e-6});
+    spec.Param("heading_prior_cauchy_scale", &o_.heading_prior_cauchy_scale,
+               {.doc = "Cauchy loss on the heading prior (0: none)", .unit = "sigma", .min = 0});
     spec.Param(
         "scan_match_cauchy_scale", &o_.scan_match_cauchy_scale,
         {.doc = "Cauchy loss on scan-matching factors (0: none)", .unit = "sigma", .min = 0});
@@ -65,6 +75,28 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "floor on factor sigmas", .unit = "m", .min = 1e-6});
     spec.Param("min_factor_sigma_yaw_rad", &o_.min_factor_sigma_yaw_rad,
                {.doc = "floor on factor sigmas", .unit = "rad", .min = 1e-7});
+    spec.Param("min_dr_sigma_xy_m", &o_.min_dr_sigma_xy_m,
+               {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above)",
+                .unit = "m"});
+    spec.Param("min_dr_sigma_yaw_rad", &o_.min_dr_sigma_yaw_rad,
+               {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above)",
+                .unit = "rad"});
+    spec.Param("loop_rmse_cov_scale", &o_.loop_rmse_cov_scale,
+               {.doc = "loop xy variance at least this times the ICP rmse^2 (0: off)", .min = 0});
+    spec.Param("loop_overlap_cov_power", &o_.loop_overlap_cov_power,
+               {.doc = "loop covariance times (1/overlap)^power (0: off)", .min = 0});
+    spec.Param("loop_max_rmse_m", &o_.loop_max_rmse_m,
+               {.doc = "reject loops with a larger ICP rmse (0: no gate)", .unit = "m", .min = 0});
+    spec.Param("loop_min_points", &o_.loop_min_points,
+               {.doc = "points a keyframe needs to take part in a loop", .min = 0});
+    spec.Param("loop_submap_half_width", &o_.loop_submap_half_width,
+               {.doc = "loop target: candidate keyframe and this many each side", .min = 0});
+    spec.Param("loop_source_half_width", &o_.loop_source_half_width,
+               {.doc = "loop source: keyframe k and this many before it", .min = 0});
+    spec.Param("loop_min_sigma_xy_m", &o_.loop_min_sigma_xy_m,
+               {.doc = "floor on loop sigmas", .unit = "m", .min = 1e-6});
+    spec.Param("loop_min_sigma_yaw_rad", &o_.loop_min_sigma_yaw_rad,
+               {.doc = "floor on loop sigmas", .unit = "rad", .min = 1e-7});
   }
   Status Start(Context&) override {
     slam_ = LocalSlam(o_);

@@ -23,12 +23,26 @@ struct LocalSlamOptions {
   // points are overconfident. Measured on the marina mission (docs/local-slam.md).
   double min_factor_sigma_xy_m = 0.1;
   double min_factor_sigma_yaw_rad = 0.01;
+  // Floors on the dead-reckoning factor kept beside a scan match (negative: the floors above).
+  double min_dr_sigma_xy_m = -1.0;
+  double min_dr_sigma_yaw_rad = -1.0;
   // Keep the dead-reckoning increment as a factor beside each scan-matching factor, and put
   // a Cauchy loss (scale in sigmas; 0: none) on scan-matching factors.
   bool keep_dead_reckoning_factor = true;
   // Yaw-only prior from the dead-reckoning heading (AHRS: absolute, bounded error) on every
   // keyframe; 0 disables.
   double heading_prior_sigma_rad = 0.0;
+  // Cauchy loss on the heading prior, in sigmas (0: none): local heading anomalies near steel
+  // objects (several sigmas) are down-weighted instead of bending the graph.
+  double heading_prior_cauchy_scale = 0.0;
+  // AHRS heading as a measurement with a time-correlated error state (off when sigma is 0):
+  // per keyframe a bias node b_k (yaw only used), the factor yaw_k + beta_k = DR yaw_k
+  // (sigma heading_meas_sigma_rad), a zero prior on beta_k (sigma heading_bias_sigma_rad:
+  // the AHRS Gauss-Markov drift and the steel anomaly, relative to keyframe 0) and a random
+  // walk beta_k - beta_k-1 (sigma heading_bias_sigma_rad * sqrt(2 dt / tau)).
+  double heading_bias_sigma_rad = 0.0;
+  double heading_bias_tau_s = 120.0;
+  double heading_meas_sigma_rad = 0.01;
   double scan_match_cauchy_scale = 1.0;
 
   bool loop_closure = true;
@@ -52,6 +66,15 @@ struct LocalSlamOptions {
   double pcm_chi2_threshold = 11.34;
   int pcm_min_clique_size = 2;
   double loop_cauchy_scale = 1.0;  // robust loss on loop factors, in sigmas
+  // Loop covariance from the registration residual (the reference: 20 * mean squared residual
+  // * I): the floored covariance is scaled up so that its xy variance is at least
+  // loop_rmse_cov_scale * rmse^2 (0: off).
+  double loop_rmse_cov_scale = 0.0;
+  // Loop covariance scaled by (1 / overlap)^loop_overlap_cov_power (0: off).
+  double loop_overlap_cov_power = 0.0;
+  double loop_max_rmse_m = 0.0;  // reject loops whose ICP rmse exceeds this (0: no gate)
+  // Source: keyframe k and this many keyframes before it, in k's frame (0: keyframe k only).
+  int loop_source_half_width = 0;
 
   int window_size = 20;  // incremental solve window (newest keyframes)
 };
@@ -69,6 +92,7 @@ struct LoopRecord {
   int to_index = 0;    // newer keyframe (source)
   msgs::Pose2 T_from_to;
   double overlap_ratio = 0.0;
+  double rmse_m = 0.0;
   bool accepted = false;
 };
 
@@ -78,6 +102,11 @@ struct StepResult {
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
+
+// Covariance given to a registered loop: the ICP covariance floored at the loop sigmas, then
+// inflated by the residual (rmse) and overlap terms of the options.
+msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double rmse_m,
+                                 double overlap_ratio, const LocalSlamOptions& options);
 
 class LocalSlam {
  public:
