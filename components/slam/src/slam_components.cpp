@@ -87,6 +87,8 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "loop covariance times (1/overlap)^power (0: off)", .min = 0});
     spec.Param("loop_max_rmse_m", &o_.loop_max_rmse_m,
                {.doc = "reject loops with a larger ICP rmse (0: no gate)", .unit = "m", .min = 0});
+    spec.Param("loop_max_yaw_rad", &o_.loop_max_yaw_rad,
+               {.doc = "candidate heading difference", .unit = "rad", .min = 0});
     spec.Param("loop_min_points", &o_.loop_min_points,
                {.doc = "points a keyframe needs to take part in a loop", .min = 0});
     spec.Param("loop_submap_half_width", &o_.loop_submap_half_width,
