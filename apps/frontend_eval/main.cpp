@@ -149,8 +149,8 @@ int main(int argc, char** argv) {
         kf_csv += line;
       }
     }
-    draco::graph::WriteFileAtomically(out_dir + "/objects.csv", objects_csv);
-    draco::graph::WriteFileAtomically(out_dir + "/keyframes.csv", kf_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/objects.csv", objects_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/keyframes.csv", kf_csv);
 
     // Pairs.
     std::vector<Row> rows;
@@ -245,7 +245,7 @@ int main(int argc, char** argv) {
           "time-consistent: %d of %zu pairs matched right at least once, %d pairs with a "
           "wrong match; answers %d right of %d matched\n",
           pairs_right, robots.size() * (robots.size() - 1), pairs_wrong, answers_right, answers);
-      draco::graph::WriteFileAtomically(out_dir + "/matching_over_time.csv", ot_csv);
+      draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/matching_over_time.csv", ot_csv);
     }
 
     // Tables.
@@ -317,9 +317,9 @@ int main(int argc, char** argv) {
                     shared_of[{static_cast<int>(ia), static_cast<int>(ib)}], tp, det);
       }
     }
-    draco::graph::WriteFileAtomically(out_dir + "/matching.csv", match_csv);
-    draco::graph::WriteFileAtomically(out_dir + "/registrations.csv", reg_csv);
-    draco::graph::WriteFileAtomically(out_dir + "/precision.csv", prec_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/matching.csv", match_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/registrations.csv", reg_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/precision.csv", prec_csv);
     std::printf("CSVs in %s\n", out_dir.c_str());
     return 0;
   } catch (const draco::graph::GraphError& e) {

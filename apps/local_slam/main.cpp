@@ -97,8 +97,8 @@ int main(int argc, char** argv) {
       run.progress = [&](draco::graph::Time t) { progress.Update(t); };
       const auto result = draco::graph::RunDeterministic(*graph, run);
       progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
-      draco::graph::WriteFileAtomically(out_dir + "/" + name + ".runtime_stats.json",
-                                        result.stats.ToJson());
+      draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + name + ".runtime_stats.json",
+                                               result.stats.ToJson());
       if (!result.ok) {
         std::cerr << "draco-local-slam: " << name << ": " << result.error << "\n";
         return 1;

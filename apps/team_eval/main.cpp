@@ -396,8 +396,8 @@ int main(int argc, char** argv) {
     }
     std::printf("\n\nper segment (RMSE m after the one alignment):\n%s", segment_lines.c_str());
     std::printf("\ninter-robot loops (accepted / true positives):\n%s", loops_csv.c_str());
-    draco::graph::WriteFileAtomically(out_dir + "/table3.csv", table_csv);
-    draco::graph::WriteFileAtomically(out_dir + "/team_loops.csv", loops_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/table3.csv", table_csv);
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/team_loops.csv", loops_csv);
     std::printf("TUM files and table3.csv, team_loops.csv in %s (draco-eval %s reports them)\n",
                 out_dir.c_str(), out_dir.c_str());
     return 0;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
 
 #include "stats_recorder.hpp"
 
@@ -98,25 +99,34 @@ std::string RunStats::ToJson() const {
   return os.str();
 }
 
-bool WriteFileAtomically(const std::string& path, const std::string& text) {
+void WriteFileAtomicallyOrThrow(const std::string& path, const std::string& text) {
   const std::string tmp = path + ".partial." + std::to_string(::getpid());
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) return false;
-    f << text;
+    if (!f) throw std::runtime_error(path + ": cannot write (" + tmp + ")");
+    f.write(text.data(), static_cast<std::streamsize>(text.size()));
     f.flush();
     if (!f) {
+      f.close();
       std::remove(tmp.c_str());
-      return false;
+      throw std::runtime_error(path + ": write failed");
     }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     std::remove(tmp.c_str());
+    throw std::runtime_error(path + ": cannot rename into place: " + ec.message());
+  }
+}
+
+bool WriteFileAtomically(const std::string& path, const std::string& text) {
+  try {
+    WriteFileAtomicallyOrThrow(path, text);
+    return true;
+  } catch (const std::runtime_error&) {
     return false;
   }
-  return true;
 }
 
 namespace internal {

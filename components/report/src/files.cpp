@@ -1,5 +1,7 @@
 #include "draco/report/files.hpp"
 
+#include "draco/graph/executor.hpp"
+
 #include <unistd.h>
 
 #include <cstdio>
@@ -11,24 +13,7 @@
 namespace draco::report {
 
 void WriteFileAtomically(const std::string& path, const std::string& bytes) {
-  const std::string tmp = path + ".partial." + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw std::runtime_error(path + ": cannot write (" + tmp + ")");
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.flush();
-    if (!f) {
-      f.close();
-      std::remove(tmp.c_str());
-      throw std::runtime_error(path + ": write failed");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename into place: " + ec.message());
-  }
+  graph::WriteFileAtomicallyOrThrow(path, bytes);
 }
 
 std::vector<Xy> ReadPlyXy(const std::string& path) {

@@ -71,7 +71,10 @@ RunResult RunThreaded(Graph& graph, const RunOptions& options = {});
 // Runs with the executor the graph names (settings.executor).
 RunResult Run(Graph& graph, const RunOptions& options = {});
 
-// Writes text to path atomically (temporary file + rename).
-bool WriteFileAtomically(const std::string& path, const std::string& text);
+// Writes text to path atomically (temporary file + rename): an interrupted write never
+// leaves a file that looks whole. Throws std::runtime_error naming the path and the reason.
+void WriteFileAtomicallyOrThrow(const std::string& path, const std::string& text);
+// Same, reporting failure as false (a Stop() turns it into a Fatal status).
+[[nodiscard]] bool WriteFileAtomically(const std::string& path, const std::string& text);
 
 }  // namespace draco::graph
