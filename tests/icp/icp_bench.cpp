@@ -7,6 +7,7 @@
 #include <random>
 
 #include "draco/icp/icp.hpp"
+#include "scene.hpp"
 
 namespace {
 
@@ -22,24 +23,8 @@ struct Scans {
 
 Scans MakeScans() {
   std::mt19937_64 rng(1);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
   std::normal_distribution<double> noise(0.0, 0.02);
-  auto scene = [&](int n) {
-    Cloud2 pts;
-    for (int i = 0; i < n; ++i) {
-      const double r = u(rng);
-      if (r < 0.4) {
-        pts.emplace_back(2.0 + 18.0 * u(rng), 6.0);
-      } else if (r < 0.7) {
-        pts.emplace_back(20.0, -6.0 + 12.0 * u(rng));
-      } else {
-        const int pile = static_cast<int>(u(rng) * 5);
-        const double a = 2.0 * M_PI * u(rng);
-        pts.emplace_back(5.0 + 3.0 * pile + 0.3 * std::cos(a), -3.0 + 0.3 * std::sin(a));
-      }
-    }
-    return pts;
-  };
+  auto scene = [&](int n) { return draco::icp::testing::Scene(rng, n); };
   Scans s;
   const Eigen::Rotation2Dd R(-0.05);
   const Eigen::Vector2d t(0.5, 0.1);

@@ -12,6 +12,7 @@
 #include "draco/icp/kdtree2.hpp"
 #include "draco/icp/sequential.hpp"
 #include "draco/navigation/se2.hpp"
+#include "scene.hpp"
 
 namespace draco::icp {
 namespace {
@@ -25,24 +26,7 @@ msgs::Pose2 Inverse(const msgs::Pose2& T) {
   return msgs::Pose2{t.x(), t.y(), -T.yaw_rad};
 }
 
-// A marina-like scene: a pier (two walls at right angles) and a row of piles.
-Cloud2 Scene(std::mt19937_64& rng, int n) {
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  Cloud2 pts;
-  for (int i = 0; i < n; ++i) {
-    const double r = u(rng);
-    if (r < 0.4) {
-      pts.emplace_back(2.0 + 18.0 * u(rng), 6.0);
-    } else if (r < 0.7) {
-      pts.emplace_back(20.0, -6.0 + 12.0 * u(rng));
-    } else {
-      const int pile = static_cast<int>(u(rng) * 5);
-      const double a = 2.0 * M_PI * u(rng);
-      pts.emplace_back(5.0 + 3.0 * pile + 0.3 * std::cos(a), -3.0 + 0.3 * std::sin(a));
-    }
-  }
-  return pts;
-}
+using testing::Scene;
 
 TEST(KdTree2, MatchesBruteForce) {
   std::mt19937_64 rng(3);
