@@ -18,6 +18,7 @@ struct TransportCounters {
   std::uint64_t frames_received = 0;
   std::uint64_t frames_malformed = 0;  // dropped by the transport (bad size, bad envelope)
   std::uint64_t frames_own = 0;        // own frames echoed back, ignored
+  std::uint64_t send_failed = 0;       // Send returned false (refused frame, DDS write error)
 };
 
 class Transport {

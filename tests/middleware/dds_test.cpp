@@ -1,0 +1,242 @@
+// Cyclone DDS transport on loopback with the shipped config/cyclonedds.xml. Each test picks a
+// domain id from the process id, so concurrent test processes do not hear each other.
+#include <dds/dds.h>
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "draco/middleware/transport.hpp"
+#include "link.h"
+
+extern char** environ;
+
+namespace draco::middleware {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+int TestDomain(int offset) { return 1 + (static_cast<int>(getpid()) % 190) + offset; }
+
+DdsOptions Options(int domain, std::uint16_t robot) {
+  return DdsOptions{.domain_id = domain,
+                    .robot_id = robot,
+                    .config_file = DRACO_SOURCE_DIR "/config/cyclonedds.xml"};
+}
+
+Frame MakeFrame(std::uint16_t destination, std::uint8_t kind, std::uint32_t seq,
+                std::size_t payload_bytes = 8) {
+  Frame f;
+  f.destination = destination;
+  f.kind = kind;
+  f.seq = seq;
+  f.enqueued_s = 1.5;
+  f.delivered_s = 2.25;
+  f.payload.resize(payload_bytes);
+  for (std::size_t i = 0; i < payload_bytes; ++i) f.payload[i] = static_cast<std::uint8_t>(i * 7);
+  return f;
+}
+
+// Polls `step` every 10 ms until it returns true or `seconds` pass.
+bool PollFor(double seconds, const std::function<bool()>& step) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+  while (Clock::now() < deadline) {
+    if (step()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return step();
+}
+
+TEST(DdsTransport, TwoRobotsExchangeFramesBothWays) {
+  const int domain = TestDomain(0);
+  auto a = MakeDdsTransport(Options(domain, 1));
+  auto b = MakeDdsTransport(Options(domain, 2));
+  EXPECT_EQ(a->Describe(), "dds:domain " + std::to_string(domain));
+
+  // Discovery: repeat a hello until the other side hears it.
+  const auto start = Clock::now();
+  std::uint32_t hello = 0;
+  ASSERT_TRUE(PollFor(5.0, [&] {
+    EXPECT_TRUE(a->Send(MakeFrame(kBroadcast, 1, hello++)));
+    return !b->Receive().empty();
+  })) << "robot 2 never heard robot 1";
+  std::cout << "[ info ] in-process discovery: "
+            << std::chrono::duration<double>(Clock::now() - start).count() << " s\n";
+  a->Receive();
+
+  ASSERT_TRUE(a->Send(MakeFrame(2, 4, 100, kMaxPayloadBytes)));  // unicast, largest frame
+  ASSERT_TRUE(a->Send(MakeFrame(3, 4, 101)));                    // for robot 3: not for b
+  ASSERT_TRUE(b->Send(MakeFrame(kBroadcast, 5, 7, 100)));
+  std::vector<Frame> at_a, at_b;
+  ASSERT_TRUE(PollFor(5.0, [&] {
+    for (Frame& f : a->Receive()) at_a.push_back(std::move(f));
+    for (Frame& f : b->Receive()) at_b.push_back(std::move(f));
+    return !at_a.empty() && !at_b.empty();
+  }));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // anything else in flight
+  for (Frame& f : b->Receive()) at_b.push_back(std::move(f));
+  ASSERT_EQ(at_b.size(), 1u);
+  EXPECT_EQ(at_b[0].source, 1);
+  EXPECT_EQ(at_b[0].destination, 2);
+  EXPECT_EQ(at_b[0].kind, 4);
+  EXPECT_EQ(at_b[0].seq, 100u);
+  EXPECT_EQ(at_b[0].enqueued_s, 1.5);
+  EXPECT_EQ(at_b[0].delivered_s, 2.25);
+  EXPECT_EQ(at_b[0].payload, MakeFrame(2, 4, 100, kMaxPayloadBytes).payload);
+  ASSERT_EQ(at_a.size(), 1u);
+  EXPECT_EQ(at_a[0].source, 2);
+  EXPECT_EQ(at_a[0].kind, 5);
+  EXPECT_EQ(at_a[0].payload.size(), 100u);
+
+  // Own frames come back through the shared topic: counted, never returned.
+  EXPECT_GT(a->counters().frames_own, 0u);
+  EXPECT_GT(b->counters().frames_own, 0u);
+  EXPECT_EQ(a->counters().frames_malformed, 0u);
+
+  Frame big = MakeFrame(2, 4, 102, kMaxPayloadBytes + 1);
+  EXPECT_FALSE(a->Send(big));
+  EXPECT_EQ(a->counters().send_failed, 1u);
+}
+
+TEST(DdsTransport, MalformedSamplesAreCountedNotReturned) {
+  const int domain = TestDomain(1);
+  auto b = MakeDdsTransport(Options(domain, 2));
+  // A raw peer on the same topic that writes garbage.
+  const dds_entity_t participant = dds_create_participant(domain, nullptr, nullptr);
+  ASSERT_GT(participant, 0);
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 64);
+  const dds_entity_t topic =
+      dds_create_topic(participant, &draco_link_LinkFrame_desc, "draco_link", qos, nullptr);
+  ASSERT_GT(topic, 0);
+  const dds_entity_t writer = dds_create_writer(participant, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  ASSERT_GT(writer, 0);
+  ASSERT_TRUE(PollFor(5.0, [&] {
+    dds_publication_matched_status_t status{};
+    dds_get_publication_matched_status(writer, &status);
+    return status.current_count >= 1;
+  }));
+
+  std::uint8_t bytes[4] = {1, 2, 3, 4};
+  auto write = [&](std::uint16_t source, std::uint8_t kind, double delivered_s) {
+    draco_link_LinkFrame s{};
+    s.source = source;
+    s.destination = kBroadcast;
+    s.kind = kind;
+    s.delivered_s = delivered_s;
+    s.payload._length = s.payload._maximum = 4;
+    s.payload._buffer = bytes;
+    ASSERT_EQ(dds_write(writer, &s), DDS_RETCODE_OK);
+  };
+  write(9, 0, 1.0);                                       // kind 0
+  write(9, 3, std::numeric_limits<double>::quiet_NaN());  // not a time
+  write(9, 3, std::numeric_limits<double>::infinity());   // not a time
+  write(2, 3, 1.0);                                       // claims to be robot 2 itself
+  write(9, 3, 1.0);                                       // fine
+  std::vector<Frame> got;
+  ASSERT_TRUE(PollFor(5.0, [&] {
+    for (Frame& f : b->Receive()) got.push_back(std::move(f));
+    return !got.empty();
+  }));
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].source, 9);
+  EXPECT_EQ(got[0].payload, (std::vector<std::uint8_t>{1, 2, 3, 4}));
+  EXPECT_EQ(b->counters().frames_malformed, 3u);
+  EXPECT_EQ(b->counters().frames_own, 1u);
+  EXPECT_EQ(b->counters().frames_received, 1u);
+  dds_delete(participant);
+}
+
+TEST(DdsTransport, UnreadableConfigNamesTheFile) {
+  DdsOptions options = Options(TestDomain(2), 1);
+  options.config_file = "/nonexistent/cyclonedds.xml";
+  try {
+    MakeDdsTransport(options);
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/cyclonedds.xml"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Two processes on loopback: this test starts itself again as robot 2 (DdsPeer.Echo), which
+// answers every hello; measures the time from spawn to the first answer.
+TEST(DdsTransport, TwoProcessesDiscoverEachOtherOnLoopback) {
+  const int domain = TestDomain(3);
+  auto a = MakeDdsTransport(Options(domain, 1));
+  std::vector<std::string> env_strings;
+  for (char** e = environ; *e; ++e) env_strings.emplace_back(*e);
+  env_strings.push_back("DRACO_MW_PEER_DOMAIN=" + std::to_string(domain));
+  std::vector<char*> envp;
+  for (std::string& s : env_strings) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  std::string exe = "/proc/self/exe";
+  std::string filter = "--gtest_filter=DdsPeer.Echo";
+  char* argv[] = {exe.data(), filter.data(), nullptr};
+  pid_t child = 0;
+  const auto start = Clock::now();
+  ASSERT_EQ(posix_spawn(&child, exe.c_str(), nullptr, nullptr, argv, envp.data()), 0);
+
+  std::uint32_t hello = 0;
+  bool answered = false;
+  bool sent_ok = true;
+  PollFor(8.0, [&] {
+    if (hello % 5 == 0) sent_ok = a->Send(MakeFrame(kBroadcast, 1, hello)) && sent_ok;
+    ++hello;
+    for (const Frame& f : a->Receive()) {
+      if (f.source == 2 && f.kind == 2 && f.destination == 1) answered = true;
+    }
+    return answered;
+  });
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  EXPECT_TRUE(sent_ok);
+  EXPECT_TRUE(answered) << "no answer from the peer process";
+  std::cout << "[ info ] two processes: spawn to first answer " << seconds << " s\n";
+  a->Send(MakeFrame(2, 3, hello));  // stop
+  int status = 0;
+  bool exited = false;
+  PollFor(10.0, [&] {
+    if (!exited && waitpid(child, &status, WNOHANG) == child) exited = true;
+    if (!exited && hello++ % 20 == 0) a->Send(MakeFrame(2, 3, hello));  // repeat the stop
+    return exited;
+  });
+  if (!exited) {
+    kill(child, SIGKILL);
+    waitpid(child, &status, 0);
+  }
+  EXPECT_TRUE(exited);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+}
+
+// Robot 2 of TwoProcessesDiscoverEachOtherOnLoopback (skipped unless started by it).
+TEST(DdsPeer, Echo) {
+  const char* domain = std::getenv("DRACO_MW_PEER_DOMAIN");
+  if (domain == nullptr) GTEST_SKIP() << "started by TwoProcessesDiscoverEachOtherOnLoopback";
+  auto b = MakeDdsTransport(Options(std::atoi(domain), 2));
+  bool stop = false;
+  PollFor(15.0, [&] {
+    for (const Frame& f : b->Receive()) {
+      if (f.kind == 3) stop = true;
+      if (f.kind == 1) {
+        EXPECT_TRUE(b->Send(MakeFrame(1, 2, f.seq)));
+      }
+    }
+    return stop;
+  });
+  EXPECT_TRUE(stop);
+}
+
+}  // namespace
+}  // namespace draco::middleware
