@@ -1,0 +1,470 @@
+#include "draco/fleet/link.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <thread>
+
+namespace draco::fleet {
+namespace {
+
+using middleware::Frame;
+using msgs::FleetKind;
+
+constexpr std::uint8_t kClockKind = 0;  // lock-step clock frames: not link traffic
+constexpr std::size_t kClockBytes = 4 + 8 + 1 + 8;
+
+int Priority(FleetKind kind) {
+  switch (kind) {
+    case FleetKind::kHeartbeat:
+      return 0;
+    case FleetKind::kLoopClosures:
+    case FleetKind::kScanRequest:
+      return 1;
+    case FleetKind::kObjectMap:
+    case FleetKind::kKeyframePoses:
+      return 2;
+    case FleetKind::kScanReply:
+      return 3;
+  }
+  return 3;
+}
+
+void PutU64(std::vector<std::uint8_t>* out, std::uint64_t v, int bytes) {
+  for (int i = 0; i < bytes; ++i) out->push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+}
+std::uint64_t GetU64(const std::vector<std::uint8_t>& in, std::size_t at, int bytes) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v |= static_cast<std::uint64_t>(in[at + i]) << (8 * i);
+  return v;
+}
+
+std::uint32_t DrawIncarnation() {
+  const auto t = std::chrono::system_clock::now().time_since_epoch().count();
+  std::uint64_t x = static_cast<std::uint64_t>(t) ^ (static_cast<std::uint64_t>(::getpid()) << 32);
+  x ^= x >> 33;
+  x *= 0xff51afd7ed558ccdULL;
+  x ^= x >> 33;
+  const auto v = static_cast<std::uint32_t>(x);
+  return v == 0 ? 1u : v;
+}
+
+std::string JsonEscape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+}  // namespace
+
+LinkEndpoint::LinkEndpoint(const LinkOptions& options,
+                           std::unique_ptr<middleware::Transport> transport)
+    : options_(options),
+      transport_(std::move(transport)),
+      channel_(static_cast<std::uint16_t>(options.robot_id), options.channel),
+      object_encoder_(options.object_delta),
+      pose_encoder_(options.pose_delta) {
+  if (!transport_) throw std::invalid_argument("LinkEndpoint: no transport");
+  if (options_.tick_s <= 0.0) throw std::invalid_argument("LinkEndpoint: tick_s must be > 0");
+  if (options_.incarnation == 0) options_.incarnation = DrawIncarnation();
+  for (int id : options_.team) {
+    if (id == options_.robot_id) continue;
+    if (id < 0 || id > options_.bounds.max_robot_id) {
+      throw std::invalid_argument("LinkEndpoint: robot id " + std::to_string(id) + " outside 0.." +
+                                  std::to_string(options_.bounds.max_robot_id));
+    }
+    teammates_[id].robot_id = id;
+  }
+}
+
+LinkEndpoint::~LinkEndpoint() = default;
+
+middleware::TransportCounters LinkEndpoint::transport_counters() const {
+  return transport_->counters();
+}
+
+TeammateLinkState* LinkEndpoint::Teammate(int robot_id) {
+  auto it = teammates_.find(robot_id);
+  return it == teammates_.end() ? nullptr : &it->second;
+}
+
+msgs::FleetHeader LinkEndpoint::Header(FleetKind kind, double now_s) {
+  msgs::FleetHeader h;
+  h.robot_id = options_.robot_id;
+  h.incarnation = options_.incarnation;
+  h.seq = ++seq_[static_cast<int>(kind)];
+  h.time_s = now_s;
+  return h;
+}
+
+void LinkEndpoint::Queue(FleetKind kind, int destination, std::vector<std::uint8_t> payload,
+                         double now_s) {
+  Frame f;
+  f.destination =
+      destination < 0 ? middleware::kBroadcast : static_cast<std::uint16_t>(destination);
+  f.kind = static_cast<std::uint8_t>(kind);
+  f.priority = static_cast<std::uint8_t>(Priority(kind));
+  f.payload = std::move(payload);
+  channel_.Enqueue(std::move(f), now_s);
+}
+
+void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
+  bool anyone = false;
+  for (const auto& [id, t] : teammates_) anyone = anyone || (t.known && !t.left);
+  try {
+    if (out.has_poses) own_keyframes_ = static_cast<int>(out.poses.size());
+    if (!anyone) return;  // nobody listening yet: keep the deltas for the first contact
+    if (out.has_poses) {
+      msgs::KeyframePoses update;
+      if (pose_encoder_.MakeUpdate(out.poses, send_full_poses_, &update)) {
+        update.header = Header(FleetKind::kKeyframePoses, now_s);
+        Queue(FleetKind::kKeyframePoses, -1, Encode(update, options_.codec), now_s);
+      }
+      send_full_poses_ = false;
+    }
+    if (out.has_object_map) {
+      // Delta against the version every listening teammate holds; full when they differ.
+      std::uint32_t base = 0;
+      bool first = true;
+      for (const auto& [id, t] : teammates_) {
+        if (!t.known || t.left) continue;
+        if (first) {
+          base = t.acked_own_version;
+          first = false;
+        } else if (t.acked_own_version != base) {
+          base = 0;
+        }
+      }
+      msgs::ObjectMapUpdate update;
+      if (object_encoder_.MakeUpdate(out.object_map, base, &update)) {
+        update.header = Header(FleetKind::kObjectMap, now_s);
+        Queue(FleetKind::kObjectMap, -1, Encode(update, options_.codec), now_s);
+      }
+    }
+    for (auto r : out.requests) {
+      r.header = Header(FleetKind::kScanRequest, now_s);
+      Queue(FleetKind::kScanRequest, r.target_robot, Encode(r, options_.codec), now_s);
+    }
+    for (auto r : out.replies) {
+      r.header = Header(FleetKind::kScanReply, now_s);
+      Queue(FleetKind::kScanReply, r.requester_robot, Encode(r, options_.codec), now_s);
+    }
+    for (auto l : out.loops) {
+      l.header = Header(FleetKind::kLoopClosures, now_s);
+      Queue(FleetKind::kLoopClosures, l.target_robot, Encode(l, options_.codec), now_s);
+    }
+  } catch (const std::invalid_argument&) {
+    ++counters_.encode_errors;  // a message of ours broke a bound: not sent
+  }
+}
+
+void LinkEndpoint::SendClock(double now_s, bool bye) {
+  Frame f;
+  f.source = static_cast<std::uint16_t>(options_.robot_id);
+  f.kind = kClockKind;
+  f.enqueued_s = f.delivered_s = now_s;
+  std::uint64_t heard = 0;
+  for (const auto& [id, t] : teammates_) {
+    if (t.known && id < 64) heard |= 1ULL << id;
+  }
+  PutU64(&f.payload, options_.incarnation, 4);
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &now_s, sizeof bits);
+  PutU64(&f.payload, bits, 8);
+  f.payload.push_back(bye ? 1 : 0);
+  PutU64(&f.payload, heard, 8);
+  transport_->Send(f);
+}
+
+void LinkEndpoint::ReceiveAll(double now_s) {
+  for (auto& f : transport_->Receive()) {
+    TeammateLinkState* t = Teammate(f.source);
+    if (t == nullptr) {
+      ++counters_.unknown_robot;
+      continue;
+    }
+    if (f.destination != middleware::kBroadcast && f.destination != options_.robot_id) {
+      ++counters_.not_for_us;
+      continue;
+    }
+    if (f.kind == kClockKind) {
+      if (f.payload.size() != kClockBytes) {
+        ++counters_.rejected;
+        continue;
+      }
+      const auto inc = static_cast<std::uint32_t>(GetU64(f.payload, 0, 4));
+      const std::uint64_t bits = GetU64(f.payload, 4, 8);
+      double clock = 0.0;
+      std::memcpy(&clock, &bits, sizeof clock);
+      if (!std::isfinite(clock) || inc == 0) {
+        ++counters_.rejected;
+        continue;
+      }
+      NoteIncarnation(t, inc);
+      t->clock_s = clock;
+      t->left = f.payload[12] != 0;
+      t->hears_us = ((GetU64(f.payload, 13, 8) >> options_.robot_id) & 1ULL) != 0;
+      t->last_heard_s = now_s;
+      t->silent = false;
+      continue;
+    }
+    if (inbox_.size() >= options_.max_held_frames) {
+      ++counters_.inbox_overflow;
+      continue;
+    }
+    inbox_.Add(std::move(f));
+  }
+}
+
+void LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation) {
+  if (t->known && incarnation == t->incarnation) return;
+  const bool restarted = t->known;
+  pending_events_.push_back(
+      {t->robot_id, incarnation,
+       restarted ? msgs::TeammateEventKind::kRestarted : msgs::TeammateEventKind::kJoined});
+  if (restarted) ++t->restarts;
+  t->incarnation = incarnation;
+  t->known = true;
+  t->left = false;
+  t->left_reported = false;
+  t->held_map = {};
+  t->held_map_version = 0;
+  t->acked_own_version = 0;
+  t->timeout_clock_s = -1e300;
+  t->clock_s = -1e300;
+  t->frames_since_restart = 0;
+  send_full_poses_ = true;
+}
+
+bool LinkEndpoint::InStep(const TeammateLinkState& t, double now_s) const {
+  return t.known && !t.left && t.clock_s >= now_s - options_.max_lag_s &&
+         t.clock_s > t.timeout_clock_s;
+}
+
+void LinkEndpoint::WaitForTeammates(double now_s) {
+  const auto start = std::chrono::steady_clock::now();
+  auto last_clock = start;
+  const double need = now_s - 1.5 * options_.tick_s;
+  while (true) {
+    bool ready = true;
+    for (const auto& [id, t] : teammates_) {
+      if (!started_) {
+        // First tick: every teammate must be there and hear us (DDS discovery is not
+        // instantaneous; frames sent before it completes would be lost).
+        if (!t.known || !t.hears_us) ready = false;
+      } else if (InStep(t, now_s) && t.clock_s <= need) {
+        ready = false;
+      }
+    }
+    if (ready) break;
+    const auto now = std::chrono::steady_clock::now();
+    const double waited = std::chrono::duration<double>(now - start).count();
+    const double limit = started_ ? options_.lockstep_timeout_s : options_.startup_timeout_s;
+    if (waited > limit) {
+      for (auto& [id, t] : teammates_) {
+        if (started_ ? (InStep(t, now_s) && t.clock_s <= need) : (!t.known || !t.hears_us)) {
+          t.timeout_clock_s = t.clock_s;
+          ++counters_.lockstep_timeouts;
+        }
+      }
+      break;
+    }
+    if (std::chrono::duration<double>(now - last_clock).count() > 0.05) {
+      SendClock(now_s, false);  // repeat: a teammate may have matched since
+      last_clock = now;
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+    ReceiveAll(now_s);
+  }
+  counters_.lockstep_wait_s +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  started_ = true;
+}
+
+void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in) {
+  TeammateLinkState* t = Teammate(f.source);
+  if (t == nullptr) return;
+  const auto kind = static_cast<FleetKind>(f.kind);
+  const std::size_t bits = middleware::LinkBits(f);
+  auto reject = [&]() {
+    ++counters_.rejected;
+    ++t->frames_rejected;
+    channel_.CountRejected(f.kind);
+  };
+  auto check_header = [&](const msgs::FleetHeader& h) {
+    if (h.robot_id != f.source) {
+      ++counters_.header_mismatch;
+      reject();
+      return false;
+    }
+    NoteIncarnation(t, h.incarnation);
+    t->last_heard_s = now_s;
+    t->silent = false;
+    ++t->frames_received;
+    ++t->frames_since_restart;
+    channel_.CountReceived(f.kind, bits);
+    return true;
+  };
+  switch (kind) {
+    case FleetKind::kHeartbeat: {
+      msgs::Heartbeat m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      for (const auto& a : m.acks) {
+        if (a.robot_id == options_.robot_id && a.incarnation == options_.incarnation) {
+          t->acked_own_version = a.object_map_version;
+        }
+      }
+      return;
+    }
+    case FleetKind::kObjectMap: {
+      msgs::ObjectMapUpdate m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      if (!ApplyObjectMapUpdate(m, &t->held_map, &t->held_map_version)) {
+        ++t->base_mismatches;
+        return;
+      }
+      t->held_map.robot_id = t->robot_id;
+      t->held_map.time_s = m.header.time_s;
+      in->object_maps.push_back({m.header, t->held_map_version, t->held_map});
+      return;
+    }
+    case FleetKind::kKeyframePoses: {
+      msgs::KeyframePoses m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      in->poses.push_back(std::move(m));
+      return;
+    }
+    case FleetKind::kScanRequest: {
+      msgs::ScanRequest m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      if (m.target_robot == options_.robot_id) in->requests.push_back(std::move(m));
+      return;
+    }
+    case FleetKind::kScanReply: {
+      msgs::ScanReply m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      if (m.requester_robot == options_.robot_id) in->replies.push_back(std::move(m));
+      return;
+    }
+    case FleetKind::kLoopClosures: {
+      msgs::LoopClosureMessage m;
+      if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
+      if (!check_header(m.header)) return;
+      if (m.target_robot == options_.robot_id) in->loops.push_back(std::move(m));
+      return;
+    }
+  }
+  reject();  // unknown kind
+}
+
+msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* outgoing) {
+  if (outgoing != nullptr) QueueOutgoing(*outgoing, now_s);
+  if (now_s >= next_heartbeat_s_) {
+    next_heartbeat_s_ = now_s + options_.heartbeat_period_s;
+    msgs::Heartbeat hb;
+    hb.header = Header(FleetKind::kHeartbeat, now_s);
+    hb.num_keyframes = own_keyframes_;
+    for (const auto& [id, t] : teammates_) {
+      if (t.known && !t.left) hb.acks.push_back({id, t.incarnation, t.held_map_version});
+    }
+    try {
+      Queue(FleetKind::kHeartbeat, -1, Encode(hb, options_.codec), now_s);
+    } catch (const std::invalid_argument&) {
+      ++counters_.encode_errors;
+    }
+  }
+  // The modem works between ticks: what finishes by the next tick is handed over now, marked
+  // with its true delivery time (the receivers hold it until then). Never delivered in the
+  // tick it was sent in (see the header): the same behaviour whatever order the robots' ticks
+  // run in.
+  for (auto& f : channel_.Transmit(now_s + options_.tick_s)) {
+    f.delivered_s = std::max(f.delivered_s, now_s + 0.5 * options_.tick_s);
+    transport_->Send(f);
+  }
+  if (options_.lockstep) SendClock(now_s, false);
+  ReceiveAll(now_s);
+  if (options_.lockstep) WaitForTeammates(now_s);
+
+  msgs::FleetIncoming in;
+  in.time_s = now_s;
+  for (const auto& f : inbox_.Due(now_s)) Deliver(f, now_s, &in);
+  for (auto& [id, t] : teammates_) {
+    if (t.known && !t.silent && !t.left && t.last_heard_s >= 0.0 &&
+        now_s - t.last_heard_s > options_.silence_s) {
+      t.silent = true;
+      pending_events_.push_back({id, t.incarnation, msgs::TeammateEventKind::kSilent});
+    }
+    if (t.left && !t.left_reported) {
+      t.left_reported = true;
+      pending_events_.push_back({id, t.incarnation, msgs::TeammateEventKind::kLeft});
+    }
+  }
+  in.events = std::move(pending_events_);
+  pending_events_.clear();
+  return in;
+}
+
+void LinkEndpoint::Close(double now_s) { SendClock(now_s, true); }
+
+std::string LinkEndpoint::StatsJson() const {
+  std::ostringstream o;
+  o.precision(10);
+  const auto& s = channel_.stats();
+  o << "{\n  \"robot_id\": " << options_.robot_id
+    << ",\n  \"incarnation\": " << options_.incarnation << ",\n  \"transport\": \""
+    << JsonEscape(transport_->Describe())
+    << "\",\n  \"team_rate_bps\": " << options_.channel.team_rate_bps
+    << ",\n  \"busy_s\": " << s.busy_s << ",\n  \"kinds\": {";
+  bool first = true;
+  for (int k = 1; k < msgs::kNumFleetKinds; ++k) {
+    const auto& ks = s.by_kind[k];
+    o << (first ? "\n" : ",\n") << "    \"" << msgs::FleetKindName(static_cast<FleetKind>(k))
+      << "\": {\"frames_sent\": " << ks.frames_sent << ", \"bits_sent\": " << ks.bits_sent
+      << ", \"mean_bits\": "
+      << (ks.frames_sent ? static_cast<double>(ks.bits_sent) / ks.frames_sent : 0.0)
+      << ", \"max_bits\": " << ks.max_bits << ", \"dropped_queue\": " << ks.dropped_queue
+      << ", \"dropped_expired\": " << ks.dropped_expired << ", \"lost\": " << ks.lost
+      << ", \"frames_received\": " << ks.frames_received
+      << ", \"bits_received\": " << ks.bits_received << ", \"rejected\": " << ks.rejected << "}";
+    first = false;
+  }
+  const auto tc = transport_->counters();
+  o << "\n  },\n  \"counters\": {\"unknown_robot\": " << counters_.unknown_robot
+    << ", \"not_for_us\": " << counters_.not_for_us << ", \"rejected\": " << counters_.rejected
+    << ", \"header_mismatch\": " << counters_.header_mismatch
+    << ", \"inbox_overflow\": " << counters_.inbox_overflow
+    << ", \"encode_errors\": " << counters_.encode_errors
+    << ", \"lockstep_timeouts\": " << counters_.lockstep_timeouts
+    << ", \"lockstep_wait_s\": " << counters_.lockstep_wait_s
+    << ", \"transport_frames_sent\": " << tc.frames_sent
+    << ", \"transport_frames_received\": " << tc.frames_received
+    << ", \"transport_frames_malformed\": " << tc.frames_malformed << "},\n  \"teammates\": [";
+  first = true;
+  for (const auto& [id, t] : teammates_) {
+    o << (first ? "\n" : ",\n") << "    {\"robot_id\": " << id
+      << ", \"known\": " << (t.known ? "true" : "false") << ", \"incarnation\": " << t.incarnation
+      << ", \"frames_received\": " << t.frames_received
+      << ", \"frames_rejected\": " << t.frames_rejected
+      << ", \"base_mismatches\": " << t.base_mismatches << ", \"restarts\": " << t.restarts
+      << ", \"frames_since_restart\": " << t.frames_since_restart
+      << ", \"held_map_version\": " << t.held_map_version
+      << ", \"acked_own_version\": " << t.acked_own_version << "}";
+    first = false;
+  }
+  o << "\n  ]\n}\n";
+  return o.str();
+}
+
+}  // namespace draco::fleet
