@@ -85,6 +85,9 @@ struct TeammateState {
   int scans_received = 0;
   int candidates = 0;
   int accepted = 0;
+  // Entries dropped because they name a keyframe the agent does not hold (a scan reply or a
+  // loop with an unknown keyframe, a pose index beyond max_teammate_keyframes) or are invalid.
+  int ignored = 0;
 };
 
 struct AgentEstimate {

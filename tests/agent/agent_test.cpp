@@ -1,0 +1,560 @@
+// TeamAgent on a synthetic two-robot world: rectangular objects (outlines as points), robot A
+// and robot B surveying it in lawnmower rows, B's map frame rotated and moved against A's by
+// a known transform. The two agents exchange their outboxes directly (no link) step by step.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <numbers>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "draco/agent/team_agent.hpp"
+#include "draco/registration/registration.hpp"
+
+namespace draco::agent {
+namespace {
+
+using msgs::Point2;
+using msgs::Pose2;
+namespace reg = registration;
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr int kA = 0;
+constexpr int kB = 1;
+
+// Rectangle outlines on a jittered 5 x 5 grid, 22 m apart (gaps well above DBSCAN's 1.5 m),
+// and small piles between them.
+std::vector<Point2> World(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Point2> w;
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j) {
+      const double cx = 12.0 + 22.0 * i + 6.0 * (u(rng) - 0.5);
+      const double cy = 12.0 + 22.0 * j + 6.0 * (u(rng) - 0.5);
+      const double l = 3.0 + 7.0 * u(rng), b = 1.0 + 2.0 * u(rng), a = std::numbers::pi * u(rng);
+      const double c = std::cos(a), s = std::sin(a);
+      const auto add = [&](double x, double y) {
+        w.push_back({cx + c * x - s * y, cy + s * x + c * y});
+      };
+      for (double t = -l / 2; t <= l / 2; t += 0.4) add(t, -b / 2), add(t, b / 2);
+      for (double t = -b / 2 + 0.4; t < b / 2; t += 0.4) add(-l / 2, t), add(l / 2, t);
+    }
+  }
+  // Piles: 6 points within 0.3 m, too small to be objects (d_min), structure for ICP.
+  const std::size_t outlines = w.size();
+  for (int pile = 0, attempt = 0; pile < 250 && attempt < 20000; ++attempt) {
+    const double cx = 120.0 * u(rng), cy = 120.0 * u(rng);
+    bool clear = true;
+    for (std::size_t i = 0; i < outlines && clear; ++i) {
+      clear = std::hypot(w[i].x_m - cx, w[i].y_m - cy) > 3.0;
+    }
+    if (!clear) continue;
+    ++pile;
+    for (int i = 0; i < 6; ++i) {
+      const double a = i * std::numbers::pi / 3.0;
+      w.push_back({cx + 0.15 * std::cos(a), cy + 0.15 * std::sin(a)});
+    }
+  }
+  return w;
+}
+
+// Keyframes every 2 m along lawnmower rows at the given y, alternating direction.
+std::vector<Pose2> Lawnmower(const std::vector<double>& rows, bool start_east) {
+  std::vector<Pose2> out;
+  bool east = !start_east;
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    east = !east;
+    for (double t = 0.0; t <= 120.0 + 1e-9; t += 2.0) {
+      out.push_back({east ? t : 120.0 - t, rows[r], east ? 0.0 : std::numbers::pi});
+    }
+    if (r + 1 < rows.size()) {  // the turn: up to the next row
+      const double x = east ? 120.0 : 0.0;
+      for (double y = rows[r] + 2.0; y < rows[r + 1] - 1e-9; y += 2.0) {
+        out.push_back({x, y, std::numbers::pi / 2});
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<Point2> See(const std::vector<Point2>& world, const Pose2& T_world_kf,
+                        std::mt19937* rng) {
+  std::normal_distribution<double> n(0.0, 0.03);
+  std::vector<Point2> out;
+  const Pose2 inv = reg::Inverse(T_world_kf);
+  for (const auto& p : world) {
+    const Point2 q = reg::Apply(inv, p);
+    const double r = std::hypot(q.x_m, q.y_m);
+    if (r > 30.0 || r < 1.0 || std::abs(std::atan2(q.y_m, q.x_m)) > 65.0 * kDeg) continue;
+    out.push_back({q.x_m + n(*rng), q.y_m + n(*rng)});
+  }
+  return out;
+}
+
+struct RobotData {
+  int id = 0;
+  std::uint32_t incarnation = 0;
+  Pose2 T_world_map;
+  std::vector<Pose2> world;  // truth per keyframe
+  std::vector<msgs::Keyframe> keyframes;
+};
+
+RobotData MakeRobot(int id, const std::vector<Point2>& world, const std::vector<Pose2>& path,
+                    const Pose2& T_world_map, unsigned seed) {
+  RobotData r;
+  r.id = id;
+  r.incarnation = 100u + static_cast<std::uint32_t>(id);
+  r.T_world_map = T_world_map;
+  r.world = path;
+  std::mt19937 rng(seed);
+  const Pose2 T_map_world = reg::Inverse(T_world_map);
+  for (std::size_t k = 0; k < path.size(); ++k) {
+    msgs::Keyframe kf;
+    kf.index = static_cast<int>(k);
+    kf.time_s = static_cast<double>(k);
+    kf.T_odom_body = reg::Compose(T_map_world, path[k]);
+    kf.points_body = See(world, path[k], &rng);
+    r.keyframes.push_back(kf);
+  }
+  return r;
+}
+
+AgentOptions Options(int id) {
+  AgentOptions o;
+  o.robot_id = id;
+  o.selection.candidate_max_yaw_rad = std::numbers::pi / 2;
+  o.selection.max_candidates_per_request = 3;
+  return o;
+}
+
+// Checks made while the messages cross.
+struct Checks {
+  int requests = 0;
+  int replies = 0;
+  int max_request_scans = 0;
+  int replies_over_bound = 0;     // replies in one outbox beyond max_scans x requests served
+  int replies_not_observing = 0;  // reply keyframes that saw none of the named objects
+  int loop_messages = 0;
+  std::set<std::pair<int, int>> replied;  // (sender, keyframe)
+  int replied_twice = 0;
+};
+
+class Exchange {
+ public:
+  Exchange(RobotData* a, RobotData* b) : robots_{a, b} {}
+
+  // Delivers `out` (from robot `from`) to `to`.
+  void Deliver(int from, const Outbox& out, double t, TeamAgent& to, Checks* c) {
+    const RobotData& r = *robots_[from];
+    msgs::FleetHeader h;
+    h.robot_id = r.id;
+    h.incarnation = r.incarnation;
+    h.time_s = t;
+    if (out.has_object_map) {
+      h.seq = ++seq_[from][0];
+      msgs::ObjectMap m = out.object_map;
+      for (auto& o : m.objects) o.keyframes.clear();  // not sent over the link
+      to.OnTeammateObjectMap(h, m);
+    }
+    if (!out.poses.empty()) {
+      msgs::KeyframePoses p;
+      p.header = h;
+      p.header.seq = ++seq_[from][1];
+      p.full = true;
+      p.poses = out.poses;
+      to.OnKeyframePoses(p);
+    }
+    for (auto req : out.requests) {
+      ++c->requests;
+      c->max_request_scans = std::max(c->max_request_scans, req.max_scans);
+      req.header = h;
+      pending_requests_[from] = req;
+      to.OnScanRequest(req);
+    }
+    for (auto rep : out.replies) {
+      ++c->replies;
+      rep.header = h;
+      if (!c->replied.insert({from, rep.keyframe}).second) ++c->replied_twice;
+      to.OnScanReply(rep);
+    }
+    for (auto l : out.loops) {
+      ++c->loop_messages;
+      l.header = h;
+      to.OnLoopClosures(l);
+    }
+  }
+
+  // Replies in `out` of robot `from` answer the request its teammate sent last.
+  void CheckReplies(int from, const Outbox& out, const TeamAgent& agent, int max_scans,
+                    int requests_served, Checks* c) {
+    if (static_cast<int>(out.replies.size()) > max_scans * requests_served) {
+      ++c->replies_over_bound;
+    }
+    if (out.replies.empty()) return;
+    const auto it = pending_requests_.find(1 - from);
+    ASSERT_NE(it, pending_requests_.end());
+    const std::set<std::uint32_t> named(it->second.object_ids.begin(), it->second.object_ids.end());
+    const auto own = agent.OwnObjects();
+    for (const auto& rep : out.replies) {
+      bool saw = false;
+      for (const auto& o : own.objects) {
+        if (!named.count(o.id)) continue;
+        for (const int k : o.keyframes) saw = saw || k == rep.keyframe;
+      }
+      if (!saw) ++c->replies_not_observing;
+    }
+  }
+
+ private:
+  RobotData* robots_[2];
+  std::map<int, std::array<std::uint32_t, 2>> seq_;
+  std::map<int, msgs::ScanRequest> pending_requests_;
+};
+
+struct Mission {
+  RobotData a, b;
+  std::unique_ptr<TeamAgent> agent_a, agent_b;
+  Checks checks;
+  double end_s = 0.0;
+};
+
+// Both robots' keyframes up to t given to their agents; both step; outboxes swapped.
+void Simulate(Mission* run) {
+  const auto world = World(7);
+  const Pose2 T_world_b{40.0, -25.0, 30.0 * kDeg};
+  run->a = MakeRobot(kA, world, Lawnmower({10.0, 40.0, 70.0, 100.0}, true), {}, 1);
+  run->b = MakeRobot(kB, world, Lawnmower({25.0, 55.0, 85.0}, false), T_world_b, 2);
+  run->agent_a = std::make_unique<TeamAgent>(Options(kA));
+  run->agent_b = std::make_unique<TeamAgent>(Options(kB));
+  RobotData* robots[2] = {&run->a, &run->b};
+  TeamAgent* agents[2] = {run->agent_a.get(), run->agent_b.get()};
+  Exchange ex(&run->a, &run->b);
+  const double last =
+      static_cast<double>(std::max(run->a.keyframes.size(), run->b.keyframes.size()));
+  std::size_t next[2] = {0, 0};
+  int requests_in[2] = {0, 0};  // requests delivered to robot i before its step
+  for (double t = 5.0; t <= last + 30.0; t += 5.0) {
+    Outbox out[2];
+    for (int i = 0; i < 2; ++i) {
+      RobotData& r = *robots[i];
+      bool any = false;
+      while (next[i] < r.keyframes.size() && r.keyframes[next[i]].time_s <= t) {
+        agents[i]->OnKeyframe(r.keyframes[next[i]]);
+        ++next[i];
+        any = true;
+      }
+      if (any) {
+        msgs::KeyframeTrajectory traj;
+        traj.time_s = r.keyframes[next[i] - 1].time_s;
+        for (std::size_t k = 0; k < next[i]; ++k) {
+          traj.keyframes.push_back(
+              {static_cast<int>(k), r.keyframes[k].time_s, r.keyframes[k].T_odom_body});
+        }
+        agents[i]->OnTrajectory(traj);
+      }
+      out[i] = agents[i]->Step(t);
+      ex.CheckReplies(i, out[i], *agents[i], Options(i).max_scans_per_request, requests_in[i],
+                      &run->checks);
+    }
+    for (int i = 0; i < 2; ++i) {
+      requests_in[1 - i] = static_cast<int>(out[i].requests.size());
+      ex.Deliver(i, out[i], t, *agents[1 - i], &run->checks);
+    }
+    run->end_s = t;
+  }
+}
+
+double Deg(double rad) { return std::abs(reg::WrapAngle(rad)) / kDeg; }
+
+class AgentTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    run_ = new Mission;
+    Simulate(run_);
+  }
+  static void TearDownTestSuite() {
+    delete run_;
+    run_ = nullptr;
+  }
+  static Mission* run_;
+};
+Mission* AgentTest::run_ = nullptr;
+
+TEST_F(AgentTest, MatchesTeammateMap) {
+  const Pose2 truth = reg::Between(run_->a.T_world_map, run_->b.T_world_map);
+  for (int own = 0; own < 2; ++own) {
+    const TeamAgent& agent = own == 0 ? *run_->agent_a : *run_->agent_b;
+    const Pose2 T_true = own == 0 ? truth : reg::Inverse(truth);
+    const auto& mates = agent.teammates();
+    ASSERT_EQ(mates.count(1 - own), 1u);
+    const auto& m = mates.at(1 - own);
+    ASSERT_TRUE(m.matched) << "robot " << own;
+    const Pose2 e = reg::Between(T_true, m.last_match.T_a_b);
+    EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.5) << "robot " << own;
+    EXPECT_LT(Deg(e.yaw_rad), 2.0) << "robot " << own;
+    EXPECT_GT(m.scans_received, 0);
+    EXPECT_EQ(m.ignored, 0);
+    std::printf(
+        "robot %d: match error %.3f m %.3f deg, %d inliers, %d scans, %d candidates, "
+        "%d accepted\n",
+        own, std::hypot(e.x_m, e.y_m), Deg(e.yaw_rad), m.last_match.num_inliers, m.scans_received,
+        m.candidates, m.accepted);
+  }
+}
+
+TEST_F(AgentTest, RequestsAndRepliesAreBounded) {
+  const Checks& c = run_->checks;
+  EXPECT_GT(c.requests, 0);
+  EXPECT_GT(c.replies, 0);
+  EXPECT_LE(c.max_request_scans, Options(0).max_scans_per_request);
+  EXPECT_EQ(c.replies_over_bound, 0);
+  EXPECT_EQ(c.replies_not_observing, 0);
+  EXPECT_EQ(c.replied_twice, 0);  // each keyframe at most once per requester
+  EXPECT_GT(c.loop_messages, 0);
+  std::printf("requests %d, replies %d, loop messages %d\n", c.requests, c.replies,
+              c.loop_messages);
+}
+
+TEST_F(AgentTest, AcceptedLoopsAreTrue) {
+  for (int own = 0; own < 2; ++own) {
+    const TeamAgent& agent = own == 0 ? *run_->agent_a : *run_->agent_b;
+    const RobotData& me = own == 0 ? run_->a : run_->b;
+    const RobotData& mate = own == 0 ? run_->b : run_->a;
+    const auto& est = agent.estimate();
+    EXPECT_GE(est.accepted.size(), 5u) << "robot " << own;
+    std::set<std::uint64_t> ids;
+    std::set<std::tuple<int, int, int>> pairs;
+    double worst = 0.0;
+    for (const auto& l : est.accepted) {
+      EXPECT_EQ(l.own_robot, own);
+      EXPECT_TRUE(ids.insert(l.id).second) << "duplicate id";
+      EXPECT_TRUE(pairs.insert({l.teammate_robot, l.own_keyframe, l.teammate_keyframe}).second)
+          << "duplicate keyframe pair";
+      const Pose2 truth = reg::Between(me.world[static_cast<std::size_t>(l.own_keyframe)],
+                                       mate.world[static_cast<std::size_t>(l.teammate_keyframe)]);
+      const Pose2 e = reg::Between(truth, l.T_ownkf_teammatekf);
+      worst = std::max(worst, std::hypot(e.x_m, e.y_m));
+      EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.3)
+          << "loop " << l.id << " own " << l.own_keyframe << " team " << l.teammate_keyframe
+          << " ov " << l.overlap << " err " << e.x_m << "," << e.y_m << "," << e.yaw_rad / kDeg
+          << " cov " << l.covariance[0] << "," << l.covariance[4] << "," << l.covariance[8];
+      EXPECT_LT(Deg(e.yaw_rad), 2.0) << "loop " << l.id;
+    }
+    std::printf("robot %d: %zu candidates, %zu accepted, worst accepted error %.3f m\n", own,
+                est.candidates.size(), est.accepted.size(), worst);
+  }
+}
+
+TEST_F(AgentTest, EstimatePlacesTeammateTrajectory) {
+  for (int own = 0; own < 2; ++own) {
+    const TeamAgent& agent = own == 0 ? *run_->agent_a : *run_->agent_b;
+    const RobotData& me = own == 0 ? run_->a : run_->b;
+    const RobotData& mate = own == 0 ? run_->b : run_->a;
+    const auto& est = agent.estimate();
+    ASSERT_EQ(est.trajectories.count(1 - own), 1u);
+    ASSERT_EQ(est.trajectories.count(own), 1u);
+    const auto& traj = est.trajectories.at(1 - own);
+    EXPECT_EQ(traj.size(), mate.keyframes.size());
+    const Pose2 T_own_world = reg::Inverse(me.T_world_map);
+    double sum = 0.0, worst = 0.0;
+    for (const auto& p : traj) {
+      const Pose2 truth = reg::Compose(T_own_world, mate.world[static_cast<std::size_t>(p.index)]);
+      const double e = std::hypot(p.T_map_kf.x_m - truth.x_m, p.T_map_kf.y_m - truth.y_m);
+      sum += e;
+      worst = std::max(worst, e);
+    }
+    const double mean = sum / static_cast<double>(traj.size());
+    EXPECT_LT(mean, 0.3) << "robot " << own;
+    EXPECT_LT(worst, 1.0) << "robot " << own;
+    ASSERT_EQ(est.T_own_teammate.count(1 - own), 1u);
+    const Pose2 T_true = reg::Between(me.T_world_map, mate.T_world_map);
+    const Pose2 e = reg::Between(T_true, est.T_own_teammate.at(1 - own));
+    EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.5);
+    EXPECT_LT(Deg(e.yaw_rad), 1.0);
+    int optimized = 0;
+    for (const auto& s : agent.step_stats()) optimized += s.optimized ? 1 : 0;
+    EXPECT_GT(optimized, 0);
+    std::printf(
+        "robot %d: teammate trajectory error mean %.3f m max %.3f m; map-to-map %.3f m "
+        "%.3f deg; %d optimisations over %zu steps\n",
+        own, mean, worst, std::hypot(e.x_m, e.y_m), Deg(e.yaw_rad), optimized,
+        agent.step_stats().size());
+  }
+}
+
+bool SameBits(double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; }
+
+TEST_F(AgentTest, SecondRunIsBitIdentical) {
+  Mission again;
+  Simulate(&again);
+  for (int own = 0; own < 2; ++own) {
+    const auto& e1 = (own == 0 ? run_->agent_a : run_->agent_b)->estimate();
+    const auto& e2 = (own == 0 ? again.agent_a : again.agent_b)->estimate();
+    ASSERT_EQ(e1.trajectories.size(), e2.trajectories.size());
+    for (const auto& [robot, t1] : e1.trajectories) {
+      const auto& t2 = e2.trajectories.at(robot);
+      ASSERT_EQ(t1.size(), t2.size());
+      for (std::size_t k = 0; k < t1.size(); ++k) {
+        EXPECT_EQ(t1[k].index, t2[k].index);
+        EXPECT_TRUE(SameBits(t1[k].T_map_kf.x_m, t2[k].T_map_kf.x_m));
+        EXPECT_TRUE(SameBits(t1[k].T_map_kf.y_m, t2[k].T_map_kf.y_m));
+        EXPECT_TRUE(SameBits(t1[k].T_map_kf.yaw_rad, t2[k].T_map_kf.yaw_rad));
+      }
+    }
+    ASSERT_EQ(e1.candidates.size(), e2.candidates.size());
+    for (std::size_t i = 0; i < e1.candidates.size(); ++i) {
+      EXPECT_EQ(e1.candidates[i].id, e2.candidates[i].id);
+      EXPECT_EQ(e1.candidates[i].flags, e2.candidates[i].flags);
+      EXPECT_TRUE(SameBits(e1.candidates[i].T_ownkf_teammatekf.x_m,
+                           e2.candidates[i].T_ownkf_teammatekf.x_m));
+    }
+    const auto& s1 = (own == 0 ? run_->agent_a : run_->agent_b)->step_stats();
+    const auto& s2 = (own == 0 ? again.agent_a : again.agent_b)->step_stats();
+    ASSERT_EQ(s1.size(), s2.size());
+    for (std::size_t i = 0; i < s1.size(); ++i) {
+      EXPECT_EQ(s1[i].matches_found, s2[i].matches_found);
+      EXPECT_EQ(s1[i].candidates_added, s2[i].candidates_added);
+      EXPECT_EQ(s1[i].loops_accepted, s2[i].loops_accepted);
+      EXPECT_EQ(s1[i].optimized, s2[i].optimized);
+    }
+  }
+}
+
+// Scenario-independent checks on a fresh pair (the suite's run stays untouched).
+TEST(AgentMessages, UnknownKeyframesAreIgnored) {
+  Mission run;
+  Simulate(&run);
+  TeamAgent& a = *run.agent_a;
+  const int ignored0 = a.teammates().at(kB).ignored;
+  const std::size_t candidates0 = a.estimate().candidates.size();
+  msgs::FleetHeader h;
+  h.robot_id = kB;
+  h.incarnation = run.b.incarnation;
+  // Beyond max_teammate_keyframes: dropped on arrival.
+  msgs::ScanReply far;
+  far.header = h;
+  far.requester_robot = kA;
+  far.keyframe = 1 << 30;
+  far.points_kf = run.b.keyframes[10].points_body;
+  a.OnScanReply(far);
+  EXPECT_EQ(a.teammates().at(kB).ignored, ignored0 + 1);
+  // In range but never shared by the teammate: dropped at the step, no registration.
+  msgs::ScanReply unknown = far;
+  unknown.keyframe = 15000;
+  a.OnScanReply(unknown);
+  // A reply meant for another robot: not ours, not counted.
+  msgs::ScanReply other = far;
+  other.requester_robot = 5;
+  other.keyframe = 3;
+  a.OnScanReply(other);
+  // Loops naming keyframes A does not have (either side), and a broken covariance.
+  msgs::LoopClosureMessage lm;
+  lm.header = h;
+  lm.target_robot = kA;
+  msgs::InterRobotLoop l;
+  l.own_robot = kB;
+  l.teammate_robot = kA;
+  l.own_keyframe = 10;
+  l.teammate_keyframe = 99999;  // A's keyframe: unknown
+  l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+  lm.loops.push_back(l);
+  l.own_keyframe = 19999;  // B's keyframe: never shared
+  l.teammate_keyframe = 10;
+  lm.loops.push_back(l);
+  l.own_keyframe = 10;
+  l.covariance = {-1, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};  // not positive definite
+  lm.loops.push_back(l);
+  a.OnLoopClosures(lm);
+  a.Step(run.end_s + 5.0);
+  EXPECT_EQ(a.teammates().at(kB).ignored, ignored0 + 5);
+  EXPECT_EQ(a.step_stats().back().candidates_added, 0);
+  EXPECT_EQ(a.estimate().candidates.size(), candidates0);
+}
+
+TEST(AgentMessages, ServesRequestsOncePerKeyframe) {
+  Mission run;
+  Simulate(&run);
+  TeamAgent& b = *run.agent_b;
+  const auto own = b.OwnObjects();
+  ASSERT_GE(own.objects.size(), 3u);
+  // A request from a third robot (a new teammate) for three of B's objects.
+  msgs::ScanRequest req;
+  req.header.robot_id = 7;
+  req.header.incarnation = 1;
+  req.target_robot = kB;
+  req.max_scans = 4;
+  std::set<int> observed;
+  for (int i = 0; i < 3; ++i) {
+    req.object_ids.push_back(own.objects[static_cast<std::size_t>(i)].id);
+    observed.insert(own.objects[static_cast<std::size_t>(i)].keyframes.begin(),
+                    own.objects[static_cast<std::size_t>(i)].keyframes.end());
+  }
+  req.object_ids.push_back(123456);  // unknown id: nothing
+  b.OnScanRequest(req);
+  auto out = b.Step(run.end_s + 5.0);
+  ASSERT_EQ(out.replies.size(), 4u);
+  std::set<int> sent;
+  for (const auto& r : out.replies) {
+    EXPECT_EQ(r.requester_robot, 7);
+    EXPECT_TRUE(observed.count(r.keyframe)) << r.keyframe;
+    EXPECT_GE(r.points_kf.size(), 30u);
+    sent.insert(r.keyframe);
+  }
+  // The same request again: other keyframes, never the ones already sent.
+  b.OnScanRequest(req);
+  out = b.Step(run.end_s + 10.0);
+  for (const auto& r : out.replies) EXPECT_FALSE(sent.count(r.keyframe)) << r.keyframe;
+  // A restart of robot 7 (new incarnation) forgets what was sent to it.
+  req.header.incarnation = 2;
+  b.OnScanRequest(req);
+  out = b.Step(run.end_s + 15.0);
+  ASSERT_EQ(out.replies.size(), 4u);
+  std::set<int> again;
+  for (const auto& r : out.replies) again.insert(r.keyframe);
+  EXPECT_EQ(again, sent);
+}
+
+TEST(AgentMessages, ForgetAndNewIncarnationClearTeammate) {
+  Mission run;
+  Simulate(&run);
+  TeamAgent& a = *run.agent_a;
+  ASSERT_TRUE(a.teammates().at(kB).matched);
+  ASSERT_FALSE(a.estimate().accepted.empty());
+  // New incarnation of B: everything held of it is dropped, then re-learnt from the message.
+  msgs::FleetHeader h;
+  h.robot_id = kB;
+  h.incarnation = run.b.incarnation + 1;
+  msgs::ObjectMap empty_map;
+  a.OnTeammateObjectMap(h, empty_map);
+  ASSERT_EQ(a.teammates().count(kB), 1u);
+  const auto& s = a.teammates().at(kB);
+  EXPECT_EQ(s.incarnation, run.b.incarnation + 1);
+  EXPECT_FALSE(s.matched);
+  EXPECT_TRUE(s.keyframes.empty());
+  EXPECT_EQ(s.scans_received, 0);
+  EXPECT_EQ(s.candidates, 0);
+  EXPECT_TRUE(a.estimate().candidates.empty());
+  EXPECT_TRUE(a.estimate().accepted.empty());
+  a.Step(run.end_s + 5.0);
+  EXPECT_EQ(a.estimate().trajectories.count(kB), 0u);
+  EXPECT_EQ(a.estimate().trajectories.count(kA), 1u);
+  // Forget: gone entirely.
+  a.ForgetTeammate(kB);
+  EXPECT_EQ(a.teammates().count(kB), 0u);
+  a.Step(run.end_s + 10.0);
+  EXPECT_EQ(a.estimate().trajectories.count(kB), 0u);
+  EXPECT_EQ(a.estimate().T_own_teammate.count(kB), 0u);
+  // Own trajectory back to the local one (no loops left).
+  const auto& own = a.estimate().trajectories.at(kA);
+  ASSERT_EQ(own.size(), run.a.keyframes.size());
+  for (std::size_t k = 0; k < own.size(); ++k) {
+    EXPECT_EQ(own[k].T_map_kf.x_m, run.a.keyframes[k].T_odom_body.x_m);
+  }
+}
+
+}  // namespace
+}  // namespace draco::agent
