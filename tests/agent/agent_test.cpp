@@ -376,7 +376,13 @@ TEST_F(AgentTest, EstimatePlacesTeammateTrajectory) {
     EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.5);
     EXPECT_LT(Deg(e.yaw_rad), 1.0);
     int optimized = 0;
-    for (const auto& s : agent.step_stats()) optimized += s.optimized ? 1 : 0;
+    double wall_max = 0.0, wall_sum = 0.0;
+    for (const auto& s : agent.step_stats()) {
+      optimized += s.optimized ? 1 : 0;
+      wall_max = std::max(wall_max, s.wall_ms);
+      wall_sum += s.wall_ms;
+    }
+    std::printf("robot %d: step wall time max %.1f ms, total %.1f ms\n", own, wall_max, wall_sum);
     EXPECT_GT(optimized, 0);
     std::printf(
         "robot %d: teammate trajectory error mean %.3f m max %.3f m; map-to-map %.3f m "
@@ -473,6 +479,34 @@ TEST(AgentMessages, UnknownKeyframesAreIgnored) {
   EXPECT_EQ(a.teammates().at(kB).ignored, ignored0 + 5);
   EXPECT_EQ(a.step_stats().back().candidates_added, 0);
   EXPECT_EQ(a.estimate().candidates.size(), candidates0);
+
+  // Wrong loops on known keyframes (a correlated group, all 3 m off): filtered out by GCM.
+  msgs::LoopClosureMessage wrong;
+  wrong.header = h;
+  wrong.target_robot = kA;
+  for (int i = 0; i < 8; ++i) {
+    msgs::InterRobotLoop w;
+    w.own_robot = kB;
+    w.own_keyframe = 20 + 3 * i;  // B's keyframe
+    w.teammate_robot = kA;
+    w.teammate_keyframe = 100 + 3 * i;  // A's keyframe
+    const Pose2 truth = reg::Between(run.b.world[static_cast<std::size_t>(w.own_keyframe)],
+                                     run.a.world[static_cast<std::size_t>(w.teammate_keyframe)]);
+    w.T_ownkf_teammatekf = reg::Compose(Pose2{3.0, 0.0, 0.0}, truth);
+    w.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+    wrong.loops.push_back(w);
+  }
+  a.OnLoopClosures(wrong);
+  a.Step(run.end_s + 10.0);
+  EXPECT_EQ(a.step_stats().back().candidates_added, 8);
+  EXPECT_EQ(a.estimate().candidates.size(), candidates0 + 8);
+  for (const auto& acc : a.estimate().accepted) {
+    EXPECT_FALSE(acc.own_keyframe >= 100 && acc.own_keyframe < 124 && acc.teammate_keyframe >= 20 &&
+                 acc.teammate_keyframe < 44 && (acc.own_keyframe - 100) % 3 == 0 &&
+                 (acc.own_keyframe - 100) / 3 == (acc.teammate_keyframe - 20) / 3 &&
+                 (acc.teammate_keyframe - 20) % 3 == 0)
+        << "wrong loop accepted: " << acc.own_keyframe << " " << acc.teammate_keyframe;
+  }
 }
 
 TEST(AgentMessages, ServesRequestsOncePerKeyframe) {
