@@ -93,7 +93,8 @@ struct TeammateState {
 struct AgentEstimate {
   double time_s = 0.0;
   // Every robot's keyframe trajectory in the own map frame (own id included); teammates
-  // without a match are absent.
+  // without a map-to-map guess (an own match, or the inverse of the transform in the
+  // teammate's scan request) are absent.
   std::map<int, std::vector<msgs::KeyframePose>> trajectories;
   std::vector<msgs::InterRobotLoop> accepted;  // loops in the consistent set
   std::vector<msgs::InterRobotLoop> candidates;
