@@ -54,28 +54,35 @@ Graph ConsistencyGraph(const synthetic::Mission& m) {
 }
 
 // One decision from scratch: all pair tests and the maximum clique (GCM, default options).
+// Args: candidates, covariance (0 propagated, 1 first-loop), pair tests (1 PairTester,
+// 0 TestPair per pair: the straightforward path, the peer of the same run).
 void BM_DecisionBatch(benchmark::State& state) {
   const auto m = MakeCandidates(static_cast<int>(state.range(0)));
   FilterOptions fo;
   fo.pairwise.covariance =
       state.range(1) == 0 ? CovarianceModel::kPropagated : CovarianceModel::kFirstLoop;
-  fo.time_budget_ms = 0.0;
+  fo.fast_pair_tests = state.range(2) != 0;
   bool exact = true;
+  std::int64_t nodes = 0;
   for (auto _ : state) {
     ConsistencyFilter filter(fo);
     const Decision d = filter.Add(m.loops, m.poses);
     exact = exact && d.exact;
+    nodes = d.clique_nodes;
     benchmark::DoNotOptimize(d.accepted.data());
   }
   state.counters["candidates"] = static_cast<double>(m.loops.size());
+  state.counters["nodes"] = static_cast<double>(nodes);
   state.SetLabel(std::string(CovarianceModelName(fo.pairwise.covariance)) +
-                 (exact ? "" : " heuristic"));
+                 (fo.fast_pair_tests ? " PairTester" : " TestPair") + (exact ? "" : " heuristic"));
 }
 BENCHMARK(BM_DecisionBatch)
-    ->Args({200, 0})
-    ->Args({1000, 0})
-    ->Args({200, 1})
-    ->Args({1000, 1})
+    ->Args({200, 0, 1})
+    ->Args({200, 0, 0})
+    ->Args({1000, 0, 1})
+    ->Args({1000, 0, 0})
+    ->Args({200, 1, 1})
+    ->Args({1000, 1, 1})
     ->Unit(benchmark::kMillisecond);
 
 // One incremental step: 10 new candidates against n - 10 held ones.
@@ -84,7 +91,7 @@ void BM_DecisionIncremental(benchmark::State& state) {
   const std::vector<draco::msgs::InterRobotLoop> held(m.loops.begin(), m.loops.end() - 10);
   const std::vector<draco::msgs::InterRobotLoop> fresh(m.loops.end() - 10, m.loops.end());
   FilterOptions fo;
-  fo.time_budget_ms = 0.0;
+  fo.fast_pair_tests = state.range(1) != 0;
   for (auto _ : state) {
     state.PauseTiming();
     ConsistencyFilter filter(fo);
@@ -94,7 +101,11 @@ void BM_DecisionIncremental(benchmark::State& state) {
     benchmark::DoNotOptimize(d.accepted.data());
   }
 }
-BENCHMARK(BM_DecisionIncremental)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DecisionIncremental)
+    ->Args({200, 1})
+    ->Args({1000, 1})
+    ->Args({1000, 0})
+    ->Unit(benchmark::kMillisecond);
 
 // Maximum clique alone on the consistency graph: ours vs naive Bron-Kerbosch (no pivot).
 // The naive peer is exponential in the inlier clique, so the ratio rows use small sets.
@@ -102,7 +113,7 @@ void BM_CliqueExact(benchmark::State& state) {
   const Graph g = ConsistencyGraph(MakeCandidates(static_cast<int>(state.range(0))));
   std::size_t size = 0;
   for (auto _ : state) {
-    const CliqueResult r = MaximumClique(g, {0.0, 0});
+    const CliqueResult r = MaximumClique(g);
     size = r.vertices.size();
     benchmark::DoNotOptimize(r.vertices.data());
   }

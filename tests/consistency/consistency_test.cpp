@@ -156,6 +156,119 @@ TEST(Pairwise, TrueLoopsConsistentShiftedInconsistentBothModels) {
   EXPECT_FALSE(TestPair(z1, z3, no_maps, {}).evaluated);
 }
 
+// Random chains, map transforms and loops (errors spread around the threshold, covariances
+// random SPD over four orders of magnitude, some keyframes unknown, one teammate without a
+// map transform in some trials, intra-robot loops): PairTester decides every pair as
+// TestPair does, for both covariance models and several thresholds.
+Eigen::Matrix3d RandomSpd(std::mt19937& rng, double sigma_xy, double sigma_yaw) {
+  std::normal_distribution<double> g(0.0, 1.0);
+  Eigen::Matrix3d B;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) B(r, c) = g(rng);
+  }
+  const Eigen::Vector3d scale(sigma_xy, sigma_xy, sigma_yaw);
+  const Eigen::Matrix3d C = scale.asDiagonal() *
+                            (B * B.transpose() / 3.0 + 0.2 * Eigen::Matrix3d::Identity()) *
+                            scale.asDiagonal();
+  return C;
+}
+
+TEST(PairTester, SameDecisionsAsTestPairOnRandomInputs) {
+  std::mt19937 rng(101);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::int64_t pairs = 0;
+  std::int64_t consistent = 0;
+  std::int64_t fast_outs = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    const double sigma = std::pow(10.0, -2.5 + 2.0 * u(rng));  // 3 mm .. 0.3 m
+    ChainPoseSource source;
+    std::vector<std::vector<Pose2>> truth(3);
+    for (int r = 0; r < 3; ++r) {
+      Pose2 pose{30.0 * g(rng), 30.0 * g(rng), 3.0 * (u(rng) - 0.5)};
+      const int n = 20 + static_cast<int>(40 * u(rng));
+      for (int k = 0; k < n; ++k) {
+        if (k > 0) pose = Compose(pose, {3.0 * u(rng), g(rng), 0.4 * g(rng)});
+        truth[static_cast<std::size_t>(r)].push_back(pose);
+        source.AddKeyframe(r, Between(truth[static_cast<std::size_t>(r)][0], pose),
+                           RandomSpd(rng, 0.2 * sigma, 0.02 * sigma));
+      }
+    }
+    for (int b = 1; b < 3; ++b) {
+      if (trial % 4 == 3 && b == 2) continue;  // teammate 2 without a map transform
+      const Eigen::Matrix3d C = RandomSpd(rng, sigma, 0.1 * sigma);
+      const Eigen::Matrix3d L = C.llt().matrixL();
+      const Eigen::Vector3d noise = L * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      source.SetMapTransform(
+          0, b, {Plus(Between(truth[0][0], truth[static_cast<std::size_t>(b)][0]), noise), C});
+    }
+    std::vector<PreparedLoop> loops;
+    for (int q = 0; q < 40; ++q) {
+      msgs::InterRobotLoop z;
+      z.id = static_cast<std::uint64_t>(q);
+      z.teammate_robot = q % 7 == 0 ? 0 : 1 + q % 2;  // some intra-robot
+      const int own_n = static_cast<int>(truth[0].size());
+      const int team_n = static_cast<int>(truth[static_cast<std::size_t>(z.teammate_robot)].size());
+      z.own_keyframe = static_cast<int>(u(rng) * own_n);
+      z.teammate_keyframe = static_cast<int>(u(rng) * team_n);
+      if (q == 13) z.teammate_keyframe = team_n + 2;  // unknown keyframe
+      const Eigen::Matrix3d C = RandomSpd(rng, sigma, 0.1 * sigma);
+      const Pose2 target =
+          truth[static_cast<std::size_t>(z.teammate_robot)]
+               [static_cast<std::size_t>(std::min(z.teammate_keyframe, team_n - 1))];
+      const double spread = 3.0 * u(rng);  // error scale, in sigmas
+      const Eigen::Matrix3d L = C.llt().matrixL();
+      const Eigen::Vector3d noise = spread * (L * Eigen::Vector3d(g(rng), g(rng), g(rng)));
+      z.T_ownkf_teammatekf =
+          Plus(Between(truth[0][static_cast<std::size_t>(z.own_keyframe)], target), noise);
+      z.covariance = FromMatrix(C);
+      loops.push_back(Prepare(z, source));
+    }
+    for (const auto model : {CovarianceModel::kFirstLoop, CovarianceModel::kPropagated}) {
+      for (const double threshold : {1.0, 4.0, 11.34, 40.0}) {
+        const PairwiseOptions o{model, threshold};
+        PairTester tester;
+        ASSERT_TRUE(tester.Reset(loops, source, o));
+        for (int a = 0; a < static_cast<int>(loops.size()); ++a) {
+          for (int b = 0; b < static_cast<int>(loops.size()); ++b) {
+            if (a == b) continue;
+            const bool expected = TestPair(loops[static_cast<std::size_t>(a)],
+                                           loops[static_cast<std::size_t>(b)], source, o)
+                                      .consistent;
+            ASSERT_EQ(tester.Consistent(a, b), expected)
+                << "trial " << trial << " pair " << a << "," << b << " "
+                << CovarianceModelName(model) << " " << threshold;
+            ++pairs;
+            consistent += expected ? 1 : 0;
+          }
+        }
+        fast_outs += tester.early_outs();
+        EXPECT_LE(tester.fallbacks() * 1000,
+                  static_cast<std::int64_t>(loops.size() * loops.size()));
+      }
+    }
+  }
+  // Both outcomes well represented, and the yaw bound used.
+  EXPECT_GT(consistent * 5, pairs);
+  EXPECT_GT((pairs - consistent) * 5, pairs);
+  EXPECT_GT(fast_outs, 0);
+}
+
+// A source that is not an open chain: the filter falls back to TestPair for every pair.
+class NotAChain : public PoseSource {
+ public:
+  explicit NotAChain(const ChainPoseSource& s) : s_(s) {}
+  std::optional<UncertainPose> Relative(int r, int from, int to) const override {
+    return s_.Relative(r, from, to);
+  }
+  std::optional<UncertainPose> MapTransform(int own, int teammate) const override {
+    return s_.MapTransform(own, teammate);
+  }
+
+ private:
+  const ChainPoseSource& s_;
+};
+
 // ---------------------------------------------------------------- maximum clique
 
 Graph RandomGraph(int n, double p, std::mt19937& rng) {
@@ -238,6 +351,14 @@ TEST(MaxClique, TinyBudgetFallsBackToHeuristicAndSaysSo) {
   EXPECT_FALSE(r.exact);
   EXPECT_TRUE(IsClique(g, r.vertices));
   EXPECT_GT(r.vertices.size(), 10u);
+  CliqueOptions by_nodes;
+  by_nodes.max_nodes = 100;
+  const CliqueResult n = MaximumClique(g, by_nodes);
+  EXPECT_FALSE(n.exact);
+  EXPECT_LE(n.nodes, 101);
+  EXPECT_TRUE(IsClique(g, n.vertices));
+  EXPECT_GT(n.vertices.size(), 10u);
+  EXPECT_EQ(MaximumClique(g, by_nodes).vertices, n.vertices);  // deterministic
 }
 
 // ---------------------------------------------------------------- filters
@@ -340,6 +461,65 @@ TEST(Filter, IncrementalEqualsBatch) {
       EXPECT_LT(last.pair_tests, all.pair_tests + 1);
     }
   }
+}
+
+// The optimised pair tests change nothing: same graph, same decisions, step by step, in
+// both queue modes and for PCM and GCM, against the straightforward path and a source
+// without open chains.
+TEST(Filter, FastPairTestsGiveIdenticalDecisions) {
+  for (const auto kind : {synthetic::OutlierKind::kRandom, synthetic::OutlierKind::kCorrelated}) {
+    for (const auto method : {Method::kPcm, Method::kGcm}) {
+      for (const auto queue : {QueueMode::kIncremental, QueueMode::kReference}) {
+        synthetic::MissionOptions mo;
+        mo.outlier_fraction = 0.6;
+        mo.outliers = kind;
+        mo.seed = 51;
+        const auto m = synthetic::MakeMission(mo);
+        const NotAChain opaque(m.poses);
+        FilterOptions fo;
+        fo.method = method;
+        fo.queue = queue;
+        ConsistencyFilter fast(fo);
+        fo.fast_pair_tests = false;
+        ConsistencyFilter slow(fo);
+        fo.fast_pair_tests = true;
+        ConsistencyFilter via_opaque(fo);
+        std::size_t next = 0;
+        for (int step = 0; next < m.loops.size(); step += 4) {
+          std::vector<msgs::InterRobotLoop> batch;
+          while (next < m.loops.size() && m.arrival[next] < step + 4) {
+            batch.push_back(m.loops[next++]);
+          }
+          if (batch.empty()) continue;
+          const Decision a = fast.Add(batch, m.poses);
+          const Decision b = slow.Add(batch, m.poses);
+          const Decision c = via_opaque.Add(batch, opaque);
+          ASSERT_EQ(a.accepted, b.accepted) << "step " << step;
+          ASSERT_EQ(a.newly_accepted, b.newly_accepted);
+          ASSERT_EQ(a.retracted, b.retracted);
+          ASSERT_EQ(a.clique_nodes, b.clique_nodes);
+          ASSERT_EQ(c.accepted, b.accepted);
+        }
+      }
+    }
+  }
+}
+
+TEST(Filter, NodeBudgetIsDeterministicAndSaysSo) {
+  synthetic::MissionOptions mo;
+  mo.outlier_fraction = 0.6;
+  mo.outliers = synthetic::OutlierKind::kCorrelated;
+  mo.seed = 61;
+  const auto m = synthetic::MakeMission(mo);
+  FilterOptions fo;
+  const Decision full = ConsistencyFilter(fo).Add(m.loops, m.poses);
+  EXPECT_TRUE(full.exact);
+  EXPECT_GT(full.clique_nodes, 3);
+  fo.max_clique_nodes = 2;
+  const Decision cut = ConsistencyFilter(fo).Add(m.loops, m.poses);
+  EXPECT_FALSE(cut.exact);
+  EXPECT_LE(cut.clique_nodes, 3);
+  EXPECT_EQ(ConsistencyFilter(fo).Add(m.loops, m.poses).accepted, cut.accepted);
 }
 
 TEST(Filter, ReferenceQueueTrimsAfterSuccessAndNeverRetracts) {

@@ -19,24 +19,43 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     const double used = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
     return std::max(1e-6, options_.time_budget_ms - used);
   };
+  std::int64_t nodes_used = 0;
+  auto clique_options = [&](int lower_bound) {
+    CliqueOptions co;
+    co.time_budget_ms = remaining_ms();
+    co.lower_bound = lower_bound;
+    if (options_.max_clique_nodes > 0) {
+      co.max_nodes = std::max<std::int64_t>(1, options_.max_clique_nodes - nodes_used);
+    }
+    return co;
+  };
   Decision decision;
   const bool reference = options_.queue == QueueMode::kReference;
 
-  // 1. Place the new candidates in their groups and test them against the held ones.
-  std::map<int, int> first_new;  // group -> first new local index
+  // 1. Prepare the new candidates, place them in their groups and test them against the
+  // held ones.
   for (const msgs::InterRobotLoop& loop : loops) {
     if (!loops_.empty() && loop.own_robot != loops_.front().loop.own_robot) {
       throw std::invalid_argument("ConsistencyFilter: loops of different own robots");
     }
-    const int key = options_.method == Method::kPcm ? loop.teammate_robot : -1;
-    Group& group = groups_[key];
-    const int index = static_cast<int>(loops_.size());
+  }
+  const std::size_t first_index = loops_.size();
+  for (const msgs::InterRobotLoop& loop : loops) {
     loops_.push_back(Prepare(loop, poses));
     accepted_.push_back(false);
+  }
+  const bool fast =
+      options_.fast_pair_tests && !loops.empty() && tester_.Reset(loops_, poses, options_.pairwise);
+  std::map<int, int> first_new;  // group -> first new local index
+  std::vector<int> against;      // local indices
+  for (std::size_t index = first_index; index < loops_.size(); ++index) {
+    const msgs::InterRobotLoop& loop = loops_[index].loop;
+    const int key = options_.method == Method::kPcm ? loop.teammate_robot : -1;
+    Group& group = groups_[key];
     const int local = group.graph.AddVertex();
-    group.members.push_back(index);
+    group.members.push_back(static_cast<int>(index));
     first_new.emplace(key, local);
-    std::vector<int> against;  // local indices
+    against.clear();
     if (reference) {
       against = group.queue;
     } else {
@@ -44,10 +63,12 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     }
     for (const int u : against) {
       ++decision.pair_tests;
-      const PairwiseResult r =
-          TestPair(loops_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(u)])],
-                   loops_.back(), poses, options_.pairwise);
-      if (r.consistent) group.graph.AddEdge(u, local);
+      const int held = group.members[static_cast<std::size_t>(u)];
+      const bool consistent = fast ? tester_.Consistent(held, static_cast<int>(index))
+                                   : TestPair(loops_[static_cast<std::size_t>(held)], loops_[index],
+                                              poses, options_.pairwise)
+                                         .consistent;
+      if (consistent) group.graph.AddEdge(u, local);
     }
     if (reference) group.queue.push_back(local);
   }
@@ -58,8 +79,8 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     Group& group = groups_[key];
     const int n = group.graph.NumVertices();
     if (reference) {
-      CliqueOptions co{remaining_ms(), 0};
-      const CliqueResult r = MaximumCliqueWithin(group.graph, {}, group.queue, co);
+      const CliqueResult r = MaximumCliqueWithin(group.graph, {}, group.queue, clique_options(0));
+      nodes_used += r.nodes;
       decision.exact = decision.exact && r.exact;
       decision.clique_nodes += r.nodes;
       if (static_cast<int>(r.vertices.size()) >= options_.min_clique_size) {
@@ -75,8 +96,8 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     const int current = static_cast<int>(group.clique.size());
     if (n - first >= first) {
       // Mostly new: one search over the whole group, for a clique beating the current one.
-      CliqueOptions co{remaining_ms(), current};
-      const CliqueResult r = MaximumClique(group.graph, co);
+      const CliqueResult r = MaximumClique(group.graph, clique_options(current));
+      nodes_used += r.nodes;
       decision.exact = decision.exact && r.exact;
       decision.clique_nodes += r.nodes;
       if (!r.vertices.empty()) group.clique = r.vertices;
@@ -91,8 +112,9 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
         if (static_cast<int>(candidates.size()) + 1 <= static_cast<int>(group.clique.size())) {
           continue;
         }
-        CliqueOptions co{remaining_ms(), static_cast<int>(group.clique.size())};
-        const CliqueResult r = MaximumCliqueWithin(group.graph, {v}, candidates, co);
+        const CliqueResult r = MaximumCliqueWithin(
+            group.graph, {v}, candidates, clique_options(static_cast<int>(group.clique.size())));
+        nodes_used += r.nodes;
         decision.exact = decision.exact && r.exact;
         decision.clique_nodes += r.nodes;
         if (!r.vertices.empty()) group.clique = r.vertices;

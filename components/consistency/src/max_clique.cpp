@@ -35,12 +35,14 @@ int Count(const Bits& b) {
 // greedy colouring gives tight bounds).
 class Solver {
  public:
-  Solver(std::vector<Bits> adjacency, int best_size, Clock::time_point deadline, bool budgeted)
+  Solver(std::vector<Bits> adjacency, int best_size, Clock::time_point deadline, bool budgeted,
+         std::int64_t max_nodes)
       : adj_(std::move(adjacency)),
         words_(adj_.empty() ? 0 : static_cast<int>(adj_.front().size())),
         best_size_(best_size),
         deadline_(deadline),
-        budgeted_(budgeted) {}
+        budgeted_(budgeted),
+        max_nodes_(max_nodes) {}
 
   void Run() {
     Bits all(static_cast<std::size_t>(words_), 0);
@@ -54,6 +56,7 @@ class Solver {
  private:
   void Expand(Bits p) {
     ++nodes_;
+    if (max_nodes_ > 0 && nodes_ > max_nodes_) aborted_ = true;
     if (budgeted_ && (nodes_ & 255) == 0 && Clock::now() > deadline_) aborted_ = true;
     if (aborted_) return;
     // Greedy sequential colouring of P: vertices in colour order with their colour.
@@ -100,6 +103,7 @@ class Solver {
   int best_size_;
   Clock::time_point deadline_;
   bool budgeted_;
+  std::int64_t max_nodes_;
   std::vector<int> current_;
   std::vector<int> best_;
   bool aborted_ = false;
@@ -223,7 +227,7 @@ CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& req
   }
   const int required_size = static_cast<int>(required.size());
   Solver solver(std::move(adj), std::max(0, options.lower_bound - required_size), deadline,
-                budgeted);
+                budgeted, options.max_nodes);
   solver.Run();
 
   CliqueResult result;

@@ -28,11 +28,18 @@ const char* MethodName(Method method);
 
 struct FilterOptions {
   Method method = Method::kGcm;
-  PairwiseOptions pairwise;      // covariance model and chi-square threshold
-  int min_clique_size = 5;       // the reference's minimum
-  double time_budget_ms = 50.0;  // per Add(); <= 0: none
+  PairwiseOptions pairwise;  // covariance model and chi-square threshold
+  int min_clique_size = 5;   // the reference's minimum
+  // Clique search budget per Add(), in branch-and-bound nodes (deterministic); <= 0: none.
+  // Mission-sized problems (1,000 candidates, 90 % outliers) need well under 10^5.
+  std::int64_t max_clique_nodes = 2'000'000;
+  // Wall-clock budget per Add(); <= 0 (default): none. Makes decisions depend on load.
+  double time_budget_ms = 0.0;
   QueueMode queue = QueueMode::kIncremental;
   int reference_queue_keep = 5;
+  // PairTester when the PoseSource has open chains (same decisions, ~10x cheaper pair
+  // tests); false: TestPair for every pair, the straightforward path.
+  bool fast_pair_tests = true;
 };
 
 // Loop ids (msgs::InterRobotLoop::id), ascending.
@@ -41,7 +48,7 @@ struct Decision {
   std::vector<std::uint64_t> newly_accepted;  // accepted now, not after the previous step
   std::vector<std::uint64_t> rejected;        // every candidate held and not accepted
   std::vector<std::uint64_t> retracted;       // accepted after the previous step, not now
-  bool exact = true;  // false: a clique search ran out of time and a heuristic answered
+  bool exact = true;  // false: a clique search ran out of budget and a heuristic answered
   std::int64_t pair_tests = 0;
   std::int64_t clique_nodes = 0;
 };
@@ -64,6 +71,7 @@ class ConsistencyFilter {
 
   FilterOptions options_;
   std::vector<PreparedLoop> loops_;  // prepared with the poses of their arrival step
+  PairTester tester_;
   std::vector<bool> accepted_;
   std::map<int, Group> groups_;  // teammate (PCM) or -1 (GCM)
 };

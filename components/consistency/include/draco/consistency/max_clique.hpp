@@ -1,6 +1,7 @@
 // Maximum clique of an undirected graph: exact branch and bound with greedy-colouring bounds
-// over bitsets (Tomita's MCQ/MCS family, as in San Segundo's BBMC), under a time budget after
-// which a greedy heuristic answers and the result says so. Also a naive Bron-Kerbosch (no
+// over bitsets (Tomita's MCQ/MCS family, as in San Segundo's BBMC), under a node budget
+// (deterministic) and optionally a time budget, after either of which a greedy heuristic
+// answers and the result says so. Also a naive Bron-Kerbosch (no
 // pivot), the benchmark's peer.
 #pragma once
 
@@ -28,14 +29,18 @@ class Graph {
 };
 
 struct CliqueOptions {
-  double time_budget_ms = 50.0;  // <= 0: no budget
+  // Wall-clock budget; <= 0: none (the default: a budget on the clock makes the answer
+  // depend on machine load).
+  double time_budget_ms = 0.0;
   // Only cliques strictly larger than this are searched for (an empty result means none).
   int lower_bound = 0;
+  // Branch-and-bound nodes after which the search stops; <= 0: none.
+  std::int64_t max_nodes = 0;
 };
 
 struct CliqueResult {
   std::vector<int> vertices;  // ascending
-  bool exact = true;          // false: the budget ran out, a heuristic answered
+  bool exact = true;          // false: a budget ran out, a heuristic answered
   std::int64_t nodes = 0;     // branch-and-bound nodes visited
 };
 

@@ -11,8 +11,15 @@
 //   x_{c_l b_k} = inv(x_{c_0 c_l}) * inv(T_{a_0 c_0}) * T_{a_0 b_0} * x_{b_0 b_k}.
 // The loops are consistent when the squared Mahalanobis distance of e is below the
 // chi-square threshold (11.34: 3 dof at 0.99).
+//
+// TestPair is the straightforward test. PairTester gives the same decisions over many loops
+// at a few dozen flops per pair: every loop is placed once in the own map frame (the
+// teammate keyframe it predicts, the map transform it implies and its covariance there, as
+// a perturbation on the left), so a pair needs two compositions, a sum of 3x3 covariances,
+// one transport and a 3x3 LDL solve, without trigonometry or allocation.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <utility>
@@ -42,6 +49,16 @@ class PoseSource {
   // T_{own_0}^{teammate_0}: the teammate's map frame in the own map frame (graph matching
   // or accepted loops), with covariance. nullopt when not known yet.
   virtual std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const = 0;
+
+  // Optional, for PairTester: when the robot's poses form an open chain, its keyframes in the
+  // first keyframe's frame (T_{r_0 r_k}) and their covariances, such that Relative(r, i, j)
+  // is the first-order marginal of inv(T_0i) * T_0j with T_0j = T_0i * (an independent
+  // step). nullptr (the default): PairTester is not used and every pair calls Relative.
+  struct Chain {
+    const std::vector<Pose2>* from_first = nullptr;
+    const std::vector<Eigen::Matrix3d>* covariance = nullptr;
+  };
+  virtual Chain OpenChain(int /*robot*/) const { return {}; }
 };
 
 // A simple PoseSource: each robot's keyframes as an open odometry chain (poses in its map
@@ -58,6 +75,7 @@ class ChainPoseSource : public PoseSource {
   std::optional<UncertainPose> Relative(int robot, int from_keyframe,
                                         int to_keyframe) const override;
   std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const override;
+  Chain OpenChain(int robot) const override;
 
  private:
   struct Chain {
@@ -101,5 +119,55 @@ PairwiseResult TestPair(const PreparedLoop& z1, const PreparedLoop& z2, const Po
                         const PairwiseOptions& options);
 PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
                         const PoseSource& poses, const PairwiseOptions& options);
+
+// Symmetric 3x3 (xx, xy, xt, yy, yt, tt), the inner loops' covariance type.
+struct Sym3 {
+  double xx = 0, xy = 0, xt = 0, yy = 0, yt = 0, tt = 0;
+};
+
+// TestPair(loops[a], loops[b], poses, options).consistent for many pairs, cheaply (see the
+// file comment). Reset() places every loop with the current poses (O(loops)); it returns
+// false, and the tester must not be used, when a robot of the loops has no OpenChain().
+// A pair whose distance is within a relative 1e-6 of the threshold (or whose covariance is
+// nearly singular) is decided by TestPair itself, so decisions are TestPair's.
+class PairTester {
+ public:
+  bool Reset(const std::vector<PreparedLoop>& loops, const PoseSource& poses,
+             const PairwiseOptions& options);
+  bool Consistent(int a, int b) const;
+  // Pairs decided by a bound without the full distance, and pairs handed to TestPair.
+  std::int64_t early_outs() const { return early_outs_; }
+  std::int64_t fallbacks() const { return fallbacks_; }
+
+ private:
+  struct Placed {
+    int teammate = 0;
+    int own_keyframe = 0;
+    int teammate_keyframe = 0;
+    bool own_ok = false;       // own keyframe known
+    bool teammate_ok = false;  // teammate keyframe known
+    bool cross_ok = false;     // teammate keyframe in the own map (map transform known)
+    // A = T_{a_0 a_i} * z: the teammate keyframe in the own map frame, through the loop.
+    double ax = 0, ay = 0, ayaw = 0, ac = 1, as = 0;
+    // M = A * inv(T_{b_0 b_k}): the map transform the loop implies (teammate map -> own).
+    double mx = 0, my = 0, myaw = 0, mc = 1, ms = 0;
+    // N = A * inv(T_{a_0 b_k}): its disagreement with the map transform (own map frame).
+    double nx = 0, ny = 0, nyaw = 0, nc = 1, ns = 0;
+    double hx = 0, hy = 0, hyaw = 0;  // T_{b_0 b_k}
+    double qx = 0, qy = 0, qyaw = 0;  // T_{a_0 b_k} (map transform at arrival)
+    Sym3 own;                         // covariance of T_{a_0 a_i}, left perturbation in a_0
+    Sym3 team;                        // covariance of T_{b_0 b_k}, left perturbation in b_0
+    Sym3 loop;                        // the loop's, carried to A, left perturbation in a_0
+    Sym3 in_own;                      // T_{a_0 b_k}'s, left perturbation in a_0
+    Sym3 information;                 // first-loop model: inverse of the loop covariance
+    bool information_valid = false;
+  };
+  std::vector<Placed> placed_;
+  const std::vector<PreparedLoop>* loops_ = nullptr;
+  const PoseSource* poses_ = nullptr;
+  PairwiseOptions options_;
+  mutable std::int64_t early_outs_ = 0;
+  mutable std::int64_t fallbacks_ = 0;
+};
 
 }  // namespace draco::consistency
