@@ -15,7 +15,7 @@ namespace {
 using middleware::Frame;
 using msgs::FleetKind;
 
-constexpr std::uint8_t kClockKind = 0;  // lock-step clock frames: not link traffic
+constexpr std::uint8_t kClockKind = 15;  // lock-step clock frames (replay only): not link traffic
 constexpr std::size_t kClockBytes = 4 + 8 + 1 + 8;
 
 int Priority(FleetKind kind) {

@@ -120,4 +120,48 @@ struct LoopClosureMessage {
   std::vector<InterRobotLoop> loops;
 };
 
+// ---------------------------------------------------------------------------------------
+// Between a robot's team agent and its link endpoint (graph ports, not link traffic).
+
+// What the agent wants sent (the link makes deltas, encodes, queues and counts).
+struct FleetOutgoing {
+  double time_s = 0.0;
+  bool has_object_map = false;
+  ObjectMap object_map;  // own, full
+  bool has_poses = false;
+  std::vector<KeyframePoseEntry> poses;  // all own keyframes, current poses
+  std::vector<ScanRequest> requests;
+  std::vector<ScanReply> replies;
+  std::vector<LoopClosureMessage> loops;
+};
+
+// A teammate's object map as the link holds it after applying updates.
+struct TeammateObjectMap {
+  FleetHeader header;
+  std::uint32_t version = 0;
+  ObjectMap map;
+};
+
+enum class TeammateEventKind : std::uint8_t { kJoined, kRestarted, kSilent, kLeft };
+struct TeammateEvent {
+  int robot_id = 0;
+  std::uint32_t incarnation = 0;
+  TeammateEventKind kind = TeammateEventKind::kJoined;
+};
+
+// What arrived in one link tick, decoded and checked, in delivery order per kind.
+struct FleetIncoming {
+  double time_s = 0.0;
+  std::vector<TeammateEvent> events;
+  std::vector<TeammateObjectMap> object_maps;
+  std::vector<KeyframePoses> poses;
+  std::vector<ScanRequest> requests;
+  std::vector<ScanReply> replies;
+  std::vector<LoopClosureMessage> loops;
+  bool empty() const {
+    return events.empty() && object_maps.empty() && poses.empty() && requests.empty() &&
+           replies.empty() && loops.empty();
+  }
+};
+
 }  // namespace draco::msgs

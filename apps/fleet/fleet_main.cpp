@@ -1,0 +1,318 @@
+// draco-fleet MISSION: runs a whole team on a recorded mission and reports it.
+//   --mode dds     one draco-robot daemon per robot, separate processes over Cyclone DDS on
+//                  loopback (config/cyclonedds.xml), in lock-step on the mission clock
+//   --mode inproc  every robot in one process over the in-process bus (deterministic replay)
+//   --mode both    (default) both, then compares them: accepted inter-robot loops and team
+//                  ATE must agree within 10 %
+// Prints per robot: ATE (dead reckoning, local, team with the paper's concatenation), loops,
+// traffic; and per message kind: mean and max bits. Writes OUT/<mode>/ (every robot's
+// outputs) and OUT/fleet_report.md.
+//
+//   draco-fleet /tmp/marina --out runs/fleet-marina
+//   draco-fleet /tmp/marina --mode dds --kill bravo --kill-after-s 20 --restart-after-s 2
+#include <CLI/CLI.hpp>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <thread>
+
+#include "draco/graph/executor.hpp"
+#include "draco/graph/graph.hpp"
+#include "draco/graph/progress.hpp"
+#include "draco/recording/recording.hpp"
+#include "team_setup.hpp"
+
+namespace {
+namespace fs = std::filesystem;
+using draco::fleet_app::RobotSetup;
+
+std::atomic<bool> g_stop{false};
+extern "C" void OnSignal(int) { g_stop = true; }
+
+fs::path SelfDir() {
+  std::error_code ec;
+  const auto p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path(".") : p.parent_path();
+}
+
+struct Options {
+  std::string mission;
+  std::string out;
+  std::string graph = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
+  std::string dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
+  int domain = 0;
+  std::vector<std::string> overrides;  // applied to every robot: component.param=value
+  std::string kill;                    // robot to kill (dds)
+  double kill_after_s = 0.0;           // wall seconds after start
+  double restart_after_s = -1.0;       // wall seconds after the kill; < 0: never
+  double timeout_s = 3600.0;
+  double rate = 0.0;  // dds: pace the daemons at N x real time (0: lock-step only)
+};
+
+// The in-process team: one graph, every robot prefixed, one deterministic executor.
+int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
+                 const std::vector<std::string>& team, const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  draco::graph::LoadOptions load;
+  for (std::size_t i = 0; i < team.size(); ++i) {
+    RobotSetup s;
+    s.mission_dir = o.mission;
+    s.team = team;
+    s.robot_id = static_cast<int>(i);
+    s.world = info.world;
+    s.transport = "inproc";
+    s.bus = "team-" + std::to_string(::getpid());
+    s.lockstep = false;
+    const auto ov = draco::fleet_app::RobotOverrides(s, team[i] + "_");
+    load.overrides.insert(load.overrides.end(), ov.begin(), ov.end());
+    for (const auto& x : o.overrides) load.overrides.push_back(team[i] + "_" + x);
+  }
+  const std::string yaml = draco::fleet_app::ComposeTeamGraph(o.graph, team);
+  auto graph = draco::graph::LoadGraphString(yaml, "team graph composed from " + o.graph, load,
+                                             fs::path(o.graph).parent_path().string());
+  draco::graph::RunOptions run;
+  run.output_dir = out_dir;
+  run.stop_requested = &g_stop;
+  draco::graph::ProgressPrinter progress("draco-fleet: in-process team",
+                                         draco::fleet_app::MissionLengthS(o.mission, team));
+  run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+  const auto result = draco::graph::RunDeterministic(*graph, run);
+  progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
+  draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/runtime_stats.json", result.stats.ToJson());
+  if (!result.ok) {
+    std::cerr << "draco-fleet: in-process run failed: " << result.error << "\n";
+    return 1;
+  }
+  if (result.interrupted) {
+    std::cerr << "draco-fleet: interrupted\n";
+    return 1;
+  }
+  std::printf("draco-fleet: in-process team done in %.1f s\n", result.stats.wall_s);
+  return 0;
+}
+
+pid_t Spawn(const std::vector<std::string>& args, const std::string& log_path) {
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
+  if (pid == 0) {
+    const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::close(fd);
+    }
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    std::fprintf(stderr, "draco-fleet: cannot run %s: %s\n", argv[0], std::strerror(errno));
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// One daemon per robot over DDS; optionally kills one mid-mission and restarts it.
+int RunDds(const Options& o, const std::vector<std::string>& team, const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  const auto robot_bin = (SelfDir() / "draco-robot").string();
+  if (!fs::exists(robot_bin)) {
+    std::cerr << "draco-fleet: " << robot_bin << " not found (build the draco-robot target)\n";
+    return 1;
+  }
+  auto args_for = [&](const std::string& robot) {
+    std::vector<std::string> a = {robot_bin,      "--mission",  o.mission,
+                                  "--robot",      robot,        "--out",
+                                  out_dir,        "--domain",   std::to_string(o.domain),
+                                  "--dds-config", o.dds_config, "--graph",
+                                  o.graph,        "--rate",     std::to_string(o.rate),
+                                  "--quiet"};
+    for (const auto& x : o.overrides) {
+      a.push_back("--set");
+      a.push_back(x);
+    }
+    return a;
+  };
+  std::map<std::string, pid_t> pids;
+  std::map<std::string, int> codes;
+  for (const auto& r : team) {
+    const auto log = out_dir + "/" + r + ".log";
+    std::error_code ec;
+    fs::remove(log, ec);
+    pids[r] = Spawn(args_for(r), log);
+    std::printf("draco-fleet: started %s (pid %d, log %s)\n", r.c_str(), pids[r], log.c_str());
+  }
+  std::fflush(stdout);
+  const auto start = std::chrono::steady_clock::now();
+  bool killed = false, restarted = false, timed_out = false;
+  double killed_at = 0.0;
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  };
+  double last_note = 0.0;
+  while (!pids.empty()) {
+    int status = 0;
+    const pid_t done = ::waitpid(-1, &status, WNOHANG);
+    if (done > 0) {
+      for (auto it = pids.begin(); it != pids.end(); ++it) {
+        if (it->second != done) continue;
+        const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+        const bool was_killed = killed && !restarted && it->first == o.kill;
+        if (!was_killed) {
+          codes[it->first] = code;
+          std::printf("draco-fleet: %s finished (exit %d) after %.1f s\n", it->first.c_str(), code,
+                      elapsed());
+          pids.erase(it);
+        } else {
+          std::printf("draco-fleet: %s killed at %.1f s\n", it->first.c_str(), killed_at);
+          it->second = -1;  // waiting for the restart
+        }
+        std::fflush(stdout);
+        break;
+      }
+      continue;
+    }
+    if (g_stop) {
+      for (const auto& [r, pid] : pids) {
+        if (pid > 0) ::kill(pid, SIGTERM);
+      }
+      g_stop = false;  // wait for them to flush
+    }
+    if (!o.kill.empty() && !killed && elapsed() >= o.kill_after_s && pids.count(o.kill) &&
+        pids[o.kill] > 0) {
+      ::kill(pids[o.kill], SIGKILL);
+      killed = true;
+      killed_at = elapsed();
+    }
+    if (killed && !restarted && o.restart_after_s >= 0 &&
+        elapsed() >= killed_at + o.restart_after_s && pids.count(o.kill) && pids[o.kill] < 0) {
+      pids[o.kill] = Spawn(args_for(o.kill), out_dir + "/" + o.kill + ".log");
+      restarted = true;
+      std::printf("draco-fleet: restarted %s (pid %d) at %.1f s\n", o.kill.c_str(), pids[o.kill],
+                  elapsed());
+      std::fflush(stdout);
+    }
+    if (killed && o.restart_after_s < 0 && pids.count(o.kill) && pids[o.kill] < 0) {
+      codes[o.kill] = 137;
+      pids.erase(o.kill);
+    }
+    if (!timed_out && elapsed() > o.timeout_s) {
+      timed_out = true;
+      std::cerr << "draco-fleet: timeout after " << o.timeout_s << " s; stopping the daemons\n";
+      for (const auto& [r, pid] : pids) {
+        if (pid > 0) ::kill(pid, SIGTERM);
+      }
+    }
+    if (elapsed() - last_note > 30.0) {
+      last_note = elapsed();
+      std::printf("draco-fleet: %zu daemon(s) running, %.0f s\n", pids.size(), elapsed());
+      std::fflush(stdout);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  int worst = timed_out ? 1 : 0;
+  for (const auto& [r, c] : codes) {
+    if (c != 0 && !(r == o.kill && o.restart_after_s < 0)) worst = 1;
+  }
+  std::printf("draco-fleet: DDS team done in %.1f s\n", elapsed());
+  return worst;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"draco-fleet: a whole team on a recorded mission, over DDS and/or in-process"};
+  Options o;
+  std::string mode = "both";
+  app.add_option("mission", o.mission, "recorded mission folder")->required();
+  app.add_option("--out", o.out, "output folder (default runs/fleet-<mission>)");
+  app.add_option("--mode", mode, "dds, inproc or both")
+      ->check(CLI::IsMember({"dds", "inproc", "both"}));
+  app.add_option("--graph", o.graph, "robot graph YAML");
+  app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
+  app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML");
+  app.add_option("--set", o.overrides, "override for every robot: component_id.param=value");
+  app.add_option("--kill", o.kill, "dds: kill this robot's daemon (SIGKILL) mid-mission");
+  app.add_option("--kill-after-s", o.kill_after_s, "... this many wall seconds after start");
+  app.add_option("--restart-after-s", o.restart_after_s,
+                 "... and restart it this many seconds later (default: never)");
+  app.add_option("--rate", o.rate,
+                 "dds: pace the daemons at N x real time (0: as fast as lock-step allows)");
+  app.add_option("--timeout-s", o.timeout_s, "dds: stop the daemons after this many seconds");
+  CLI11_PARSE(app, argc, argv);
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+
+  try {
+    const auto info = draco::recording::LoadMissionInfo(o.mission);
+    std::vector<std::string> team;
+    for (const auto& r : info.robots) team.push_back(r.name);
+    if (!o.kill.empty() && std::find(team.begin(), team.end(), o.kill) == team.end()) {
+      std::cerr << "draco-fleet: --kill " << o.kill << ": no such robot in the mission\n";
+      return 1;
+    }
+    if (o.out.empty()) o.out = "runs/fleet-" + info.name;
+    fs::create_directories(o.out);
+    std::string report =
+        "# Fleet run: " + info.name + "\n\nMission `" + o.mission + "`, graph `" + o.graph + "`.\n";
+    std::map<std::string, draco::fleet_app::TeamResult> results;
+    int rc = 0;
+    for (const std::string m : {"inproc", "dds"}) {
+      if (mode != "both" && mode != m) continue;
+      const std::string dir = o.out + "/" + m;
+      const int code = m == "dds" ? RunDds(o, team, dir) : RunInProcess(o, info, team, dir);
+      if (code != 0) rc = code;
+      results[m] = draco::fleet_app::EvaluateTeamRun(dir, o.mission, team);
+      const std::string title =
+          m == "dds" ? "DDS, one daemon per robot (" + dir + ")" : "in-process (" + dir + ")";
+      std::printf("\n%s", draco::fleet_app::FormatTeamResult(results[m], title).c_str());
+      report += "\n## " + title + "\n\n" + draco::fleet_app::TeamResultMarkdown(results[m]);
+    }
+    if (results.size() == 2) {
+      // Same result within 10 %: accepted loops and team ATE, per robot.
+      std::printf("\nDDS against in-process (tolerance 10 %%)\n");
+      report +=
+          "\n## DDS against in-process\n\n| robot | accepted (inproc/dds) | team ATE m "
+          "(inproc/dds) | within 10 % |\n|---|---|---|---|\n";
+      bool all_ok = true;
+      for (std::size_t i = 0; i < team.size(); ++i) {
+        const auto& a = results["inproc"].robots[i];
+        const auto& b = results["dds"].robots[i];
+        const bool loops_ok = std::abs(a.accepted - b.accepted) <= 0.1 * std::max(a.accepted, 1);
+        const bool ate_ok =
+            (a.team_ate_m < 0 && b.team_ate_m < 0) ||
+            std::abs(a.team_ate_m - b.team_ate_m) <= 0.1 * std::max(a.team_ate_m, 1e-3);
+        all_ok = all_ok && loops_ok && ate_ok;
+        std::printf("  %-9s accepted %d / %d, team ATE %.3f / %.3f m: %s\n", a.name.c_str(),
+                    a.accepted, b.accepted, a.team_ate_m, b.team_ate_m,
+                    loops_ok && ate_ok ? "same" : "DIFFERENT");
+        char line[200];
+        std::snprintf(line, sizeof line, "| %s | %d / %d | %.3f / %.3f | %s |\n", a.name.c_str(),
+                      a.accepted, b.accepted, a.team_ate_m, b.team_ate_m,
+                      loops_ok && ate_ok ? "yes" : "no");
+        report += line;
+      }
+      if (!all_ok && rc == 0) rc = 3;
+    }
+    draco::graph::WriteFileAtomicallyOrThrow(o.out + "/fleet_report.md", report);
+    std::printf("\nreport: %s/fleet_report.md\n", o.out.c_str());
+    return rc;
+  } catch (const draco::graph::GraphError& e) {
+    std::cerr << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "draco-fleet: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,134 @@
+// One robot's end of the fleet link: turns what its team agent wants sent into compact frames
+// (object-map deltas against what the teammates acknowledged, pose updates only for keyframes
+// that moved, scans, requests, loops, heartbeats), queues them in the acoustic channel model,
+// hands transmitted frames to the transport, and turns received frames back into checked
+// messages. It tracks teammates: incarnations (a restart resets what is held of a teammate),
+// silence, and, for replays over DDS, lock-step with the teammates' mission clocks.
+//
+// Delivery rule (the same over DDS and in-process): in its tick at time t a robot hands the
+// transport the frames the modem finishes by t + tick_s, each marked with its delivery time
+// max(last bit + latency, t + tick_s / 2); a receiver hands a frame out in its first tick at or
+// after that time. So no robot sees a frame in the tick it was sent in, whatever order the
+// robots' ticks run in, and a short message queued at t arrives at t + tick_s.
+//
+// Lock-step (replay over DDS only): after its tick at time t a robot sends a clock frame (not
+// link traffic: it models the common clock real vehicles have) and waits, at most
+// lockstep_timeout_s of wall time, until every teammate in step has finished its tick at
+// t - tick_s. A teammate is in step while its clock is within max_lag_s behind; one that times
+// out, says goodbye or falls behind is not waited for until it catches up again. A restarted
+// daemon replays from the start at full speed and rejoins when it catches up.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "draco/fleet/codec.hpp"
+#include "draco/middleware/channel.hpp"
+#include "draco/middleware/transport.hpp"
+#include "draco/msgs/fleet.hpp"
+
+namespace draco::fleet {
+
+struct LinkOptions {
+  int robot_id = 0;
+  std::vector<int> team;          // every robot id of the team (own included); others are ignored
+  std::uint32_t incarnation = 0;  // 0: drawn from the wall clock and pid at construction
+  middleware::ChannelOptions channel;
+  CodecOptions codec;
+  Bounds bounds;
+  ObjectDeltaOptions object_delta;
+  PoseDeltaOptions pose_delta;
+  double tick_s = 0.5;
+  double heartbeat_period_s = 5.0;
+  double silence_s = 30.0;  // mission time without a frame: the teammate is silent
+  bool lockstep = false;
+  double lockstep_timeout_s = 10.0;  // wall seconds
+  double startup_timeout_s = 30.0;   // wall seconds to discover every teammate (first tick)
+  double max_lag_s = 2.0;  // a teammate further behind (restarted, stalled) is not waited for
+  std::size_t max_held_frames = 4096;  // receiver inbox bound
+};
+
+struct TeammateLinkState {
+  int robot_id = 0;
+  std::uint32_t incarnation = 0;
+  bool known = false;
+  bool silent = false;
+  bool left = false;
+  double last_heard_s = -1.0;       // own mission time of the last frame from it
+  double clock_s = -1e300;          // its mission clock (lock-step)
+  double timeout_clock_s = -1e300;  // its clock when a lock-step wait for it timed out
+  bool hears_us = false;            // its clock frames say it hears us
+  bool left_reported = false;
+  std::uint32_t held_map_version = 0;   // of its object map
+  std::uint32_t acked_own_version = 0;  // of our object map, from its heartbeats
+  msgs::ObjectMap held_map;
+  std::uint64_t frames_received = 0;
+  std::uint64_t frames_rejected = 0;
+  std::uint64_t base_mismatches = 0;
+  int restarts = 0;                        // new incarnations seen after the first
+  std::uint64_t frames_since_restart = 0;  // messages from the current incarnation
+};
+
+struct LinkCounters {
+  std::uint64_t unknown_robot = 0;  // frames from a robot id not in the team
+  std::uint64_t not_for_us = 0;
+  std::uint64_t rejected = 0;         // failed to decode or broke a bound
+  std::uint64_t header_mismatch = 0;  // message header robot differs from the frame source
+  std::uint64_t inbox_overflow = 0;
+  std::uint64_t encode_errors = 0;  // own messages that broke a bound (not sent)
+  std::uint64_t lockstep_timeouts = 0;
+  double lockstep_wait_s = 0.0;  // wall seconds spent waiting
+};
+
+class LinkEndpoint {
+ public:
+  LinkEndpoint(const LinkOptions& options, std::unique_ptr<middleware::Transport> transport);
+  ~LinkEndpoint();
+
+  // One tick at mission time now_s: queue `outgoing` (may be null), transmit, receive,
+  // deliver what is due. Never throws on what teammates sent.
+  msgs::FleetIncoming Tick(double now_s, const msgs::FleetOutgoing* outgoing);
+  // Last words: a goodbye clock frame (teammates stop waiting for this robot).
+  void Close(double now_s);
+
+  const middleware::LinkStats& stats() const { return channel_.stats(); }
+  const LinkCounters& counters() const { return counters_; }
+  const std::map<int, TeammateLinkState>& teammates() const { return teammates_; }
+  middleware::TransportCounters transport_counters() const;
+  std::uint32_t incarnation() const { return options_.incarnation; }
+  // Statistics as JSON: per kind (sent, received, bits, max), counters, teammates.
+  std::string StatsJson() const;
+
+ private:
+  void Queue(msgs::FleetKind kind, int destination, std::vector<std::uint8_t> payload,
+             double now_s);
+  void QueueOutgoing(const msgs::FleetOutgoing& out, double now_s);
+  void SendClock(double now_s, bool bye);
+  void ReceiveAll(double now_s);
+  void WaitForTeammates(double now_s);
+  bool InStep(const TeammateLinkState& t, double now_s) const;
+  void NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation);
+  void Deliver(const middleware::Frame& frame, double now_s, msgs::FleetIncoming* in);
+  msgs::FleetHeader Header(msgs::FleetKind kind, double now_s);
+  TeammateLinkState* Teammate(int robot_id);
+
+  LinkOptions options_;
+  std::unique_ptr<middleware::Transport> transport_;
+  middleware::AcousticChannel channel_;
+  middleware::Inbox inbox_;
+  ObjectMapDeltaEncoder object_encoder_;
+  KeyframePoseDeltaEncoder pose_encoder_;
+  std::map<int, TeammateLinkState> teammates_;
+  std::vector<msgs::TeammateEvent> pending_events_;
+  std::uint32_t seq_[msgs::kNumFleetKinds] = {};
+  double next_heartbeat_s_ = 0.0;
+  bool send_full_poses_ = false;
+  bool started_ = false;
+  int own_keyframes_ = 0;
+  LinkCounters counters_;
+};
+
+}  // namespace draco::fleet

@@ -1,0 +1,220 @@
+// fleet::LinkEndpoint over the in-process bus: what one robot queues reaches its teammates
+// (object maps as deltas, poses, requests, replies, loops) at the delivery rule's times;
+// restarts, unknown robots and garbage are handled; lock-step waits for a lagging teammate.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "draco/fleet/link.hpp"
+#include "draco/middleware/transport.hpp"
+
+namespace draco::fleet {
+namespace {
+
+std::string Bus() {
+  static int n = 0;
+  return "link_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+         std::to_string(n++);
+}
+
+LinkOptions Options(int id, std::uint32_t incarnation) {
+  LinkOptions o;
+  o.robot_id = id;
+  o.team = {0, 1, 2};
+  o.incarnation = incarnation;
+  o.channel.team_size = 3;
+  o.channel.latency_s = 0.1;
+  o.tick_s = 0.5;
+  o.heartbeat_period_s = 2.0;
+  return o;
+}
+
+msgs::ObjectMap Map(int n, double shift_m) {
+  msgs::ObjectMap m;
+  for (int i = 0; i < n; ++i) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(10 + i);
+    o.center = {3.0 * i + shift_m, -2.0 * i};
+    o.rect_center = o.center;
+    o.length_m = 2.0 + 0.1 * i;
+    o.breadth_m = 1.0;
+    o.yaw_rad = 0.3;
+    o.num_points = 50 + i;
+    m.objects.push_back(o);
+  }
+  return m;
+}
+
+struct Team {
+  explicit Team(const std::string& bus) {
+    for (int i = 0; i < 3; ++i) {
+      links.push_back(std::make_unique<LinkEndpoint>(Options(i, 100 + i),
+                                                     middleware::MakeInProcessTransport(bus, i)));
+    }
+  }
+  // Ticks every robot at t (robot 0 first); returns what each received.
+  std::vector<msgs::FleetIncoming> Tick(double t,
+                                        std::vector<const msgs::FleetOutgoing*> out = {}) {
+    out.resize(3, nullptr);
+    std::vector<msgs::FleetIncoming> in;
+    for (int i = 0; i < 3; ++i) in.push_back(links[i]->Tick(t, out[i]));
+    return in;
+  }
+  std::vector<std::unique_ptr<LinkEndpoint>> links;
+};
+
+TEST(LinkEndpoint, TeammatesJoinThroughHeartbeatsAndObjectMapsArriveAsDeltas) {
+  Team team(Bus());
+  // Heartbeats at t = 0 make everybody known.
+  auto in = team.Tick(0.0);
+  for (const auto& i : in) EXPECT_TRUE(i.events.empty());  // nothing delivered in the same tick
+  in = team.Tick(0.5);
+  for (int r = 0; r < 3; ++r) {
+    ASSERT_EQ(in[r].events.size(), 2u) << "robot " << r;
+    for (const auto& e : in[r].events) EXPECT_EQ(e.kind, msgs::TeammateEventKind::kJoined);
+  }
+  // Robot 0 sends its map: full the first time.
+  msgs::FleetOutgoing out;
+  out.has_object_map = true;
+  out.object_map = Map(30, 0.0);
+  in = team.Tick(1.0, {&out});
+  EXPECT_TRUE(in[1].object_maps.empty());
+  in = team.Tick(1.5);
+  ASSERT_EQ(in[1].object_maps.size(), 1u);
+  ASSERT_EQ(in[2].object_maps.size(), 1u);
+  const auto& held = in[1].object_maps[0];
+  EXPECT_EQ(held.header.robot_id, 0);
+  ASSERT_EQ(held.map.objects.size(), 30u);
+  EXPECT_NEAR(held.map.objects[7].center.x_m, 21.0, 0.05);
+  const auto full_bits = team.links[0]->stats().by_kind[2].max_bits;
+  // Heartbeats acknowledge version 1; a change of two objects then travels as a small delta.
+  for (double t = 2.0; t <= 4.5; t += 0.5) team.Tick(t);
+  out.object_map.objects[3].center.x_m += 1.0;
+  out.object_map.objects[4].length_m += 1.0;
+  team.Tick(5.0, {&out});
+  in = team.Tick(5.5);
+  ASSERT_EQ(in[2].object_maps.size(), 1u);
+  EXPECT_NEAR(in[2].object_maps[0].map.objects[3].center.x_m, 10.0, 0.05);
+  EXPECT_NEAR(in[2].object_maps[0].map.objects[4].length_m, 3.4, 0.06);
+  const auto& k = team.links[0]->stats().by_kind[2];
+  EXPECT_EQ(k.frames_sent, 2u);
+  EXPECT_LT(k.bits_sent - full_bits, full_bits / 3) << "the delta is not small";
+}
+
+TEST(LinkEndpoint, RequestsRepliesAndLoopsReachOnlyTheirTarget) {
+  Team team(Bus());
+  team.Tick(0.0);
+  team.Tick(0.5);
+  msgs::FleetOutgoing out;
+  msgs::ScanRequest req;
+  req.target_robot = 2;
+  req.object_ids = {10, 11};
+  out.requests.push_back(req);
+  msgs::ScanReply rep;
+  rep.requester_robot = 1;
+  rep.keyframe = 42;
+  rep.points_kf = {{1.0, 2.0}, {3.0, -1.0}};
+  out.replies.push_back(rep);
+  team.Tick(1.0, {&out});
+  const auto in = team.Tick(1.5);
+  EXPECT_TRUE(in[1].requests.empty());
+  ASSERT_EQ(in[2].requests.size(), 1u);
+  EXPECT_EQ(in[2].requests[0].object_ids, (std::vector<std::uint32_t>{10, 11}));
+  ASSERT_EQ(in[1].replies.size(), 1u);
+  EXPECT_TRUE(in[2].replies.empty());
+  EXPECT_EQ(in[1].replies[0].keyframe, 42);
+  EXPECT_NEAR(in[1].replies[0].points_kf[1].x_m, 3.0, 0.05);
+}
+
+TEST(LinkEndpoint, ARestartIsNoticedAndTheMapIsSentAgainInFull) {
+  const std::string bus = Bus();
+  Team team(bus);
+  msgs::FleetOutgoing out;
+  out.has_object_map = true;
+  out.object_map = Map(10, 0.0);
+  team.Tick(0.0);
+  team.Tick(0.5);
+  team.Tick(1.0, {nullptr, &out});
+  auto in = team.Tick(1.5);
+  ASSERT_EQ(in[0].object_maps.size(), 1u);
+  // Robot 1 restarts: new incarnation on the same bus.
+  team.links[1].reset();
+  team.links[1] =
+      std::make_unique<LinkEndpoint>(Options(1, 999), middleware::MakeInProcessTransport(bus, 1));
+  team.Tick(2.0);  // heartbeat of the new incarnation
+  in = team.Tick(2.5);
+  bool restarted = false;
+  for (const auto& e : in[0].events) {
+    restarted |=
+        e.robot_id == 1 && e.kind == msgs::TeammateEventKind::kRestarted && e.incarnation == 999;
+  }
+  EXPECT_TRUE(restarted);
+  EXPECT_EQ(team.links[0]->teammates().at(1).restarts, 1);
+  EXPECT_EQ(team.links[0]->teammates().at(1).held_map_version, 0u);
+  // The restarted robot sends its map again: full (its encoder starts over), accepted.
+  team.Tick(3.0, {nullptr, &out});
+  in = team.Tick(3.5);
+  ASSERT_EQ(in[0].object_maps.size(), 1u);
+  EXPECT_EQ(in[0].object_maps[0].map.objects.size(), 10u);
+}
+
+TEST(LinkEndpoint, GarbageAndStrangersAreCountedNeverDelivered) {
+  const std::string bus = Bus();
+  Team team(bus);
+  auto stranger = middleware::MakeInProcessTransport(bus, 17);
+  auto impostor = middleware::MakeInProcessTransport(bus, 2);  // robot 2's id, bad payloads
+  team.Tick(0.0);
+  middleware::Frame f;
+  f.source = 17;
+  f.kind = 1;
+  f.delivered_s = 0.3;
+  f.payload = {1, 2, 3};
+  stranger->Send(f);
+  f.source = 2;
+  for (std::uint8_t kind = 1; kind <= 7; ++kind) {
+    f.kind = kind;
+    f.seq = kind;
+    f.payload.assign(37, kind);
+    impostor->Send(f);
+  }
+  const auto in = team.Tick(0.5);
+  EXPECT_TRUE(in[0].object_maps.empty());
+  EXPECT_TRUE(in[0].requests.empty());
+  EXPECT_GE(team.links[0]->counters().unknown_robot, 1u);
+  EXPECT_GE(team.links[0]->counters().rejected, 6u);
+}
+
+TEST(LinkEndpoint, LockstepWaitsForALaggingTeammateAndStopsWaitingWhenItLeaves) {
+  const std::string bus = Bus();
+  LinkOptions a = Options(0, 1), b = Options(1, 2);
+  a.team = b.team = {0, 1};
+  a.channel.team_size = b.channel.team_size = 2;
+  a.lockstep = b.lockstep = true;
+  a.lockstep_timeout_s = b.lockstep_timeout_s = 10.0;
+  LinkEndpoint la(a, middleware::MakeInProcessTransport(bus, 0));
+  std::atomic<double> b_clock{-1.0};
+  std::thread tb([&] {
+    LinkEndpoint lb(b, middleware::MakeInProcessTransport(bus, 1));
+    for (int k = 0; k <= 10; ++k) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));  // b is slow
+      b_clock = 0.5 * k;
+      lb.Tick(0.5 * k, nullptr);
+    }
+    lb.Close(5.0);
+  });
+  for (int k = 0; k <= 10; ++k) {
+    la.Tick(0.5 * k, nullptr);
+    // After its tick at t, a has waited for b's tick at t - 0.5.
+    EXPECT_GE(b_clock.load(), 0.5 * k - 0.5 - 1e-9) << "a ran ahead at tick " << k;
+  }
+  tb.join();
+  // b said goodbye: a goes on alone without waiting.
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 11; k <= 20; ++k) la.Tick(0.5 * k, nullptr);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+  EXPECT_EQ(la.counters().lockstep_timeouts, 0u);
+}
+
+}  // namespace
+}  // namespace draco::fleet
