@@ -80,7 +80,10 @@ int main(int argc, char** argv) {
     draco::graph::RunOptions run;
     run.output_dir = out_dir;
     run.stop_requested = &g_stop;
-    run.rate = rate;
+    if (rate > 0.0) {
+      run.rate = rate;
+      run.use_graph_rate = false;
+    }
     draco::graph::ProgressPrinter progress(
         "draco-robot: " + robot, draco::fleet_app::MissionLengthS(setup.mission_dir, {robot}));
     if (!quiet) run.progress = [&](draco::graph::Time t) { progress.Update(t); };

@@ -215,7 +215,9 @@ class Loader {
     }
     static const std::vector<std::string> kRootKeys = {"schema",  "name",    "executor",  "rate",
                                                        "threads", "include", "components"};
-    static const std::vector<std::string> kIncludedKeys = {"schema", "include", "components"};
+    // An included graph may be a runnable graph of its own (robot.yaml includes
+    // local-slam.yaml): its settings are accepted and the including graph's apply.
+    static const std::vector<std::string>& kIncludedKeys = kRootKeys;
     const auto& allowed = is_root ? kRootKeys : kIncludedKeys;
     for (const auto& kv : root) {
       const std::string key = kv.first.as<std::string>();

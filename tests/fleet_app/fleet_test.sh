@@ -49,7 +49,7 @@ done
 cat "$work/kill.log"
 grep -q "restarted bravo" "$work/kill.log" || fail "bravo was not restarted"
 for r in alpha charlie; do
-  python3 - "$work/kill/$r.link_stats.json" <<'PY' || fail "$r did not exchange with the restarted bravo"
+  python3 - "$work/kill/dds/$r.link_stats.json" <<'PY' || fail "$r did not exchange with the restarted bravo"
 import json, sys
 s = json.load(open(sys.argv[1]))
 b = [t for t in s["teammates"] if t["robot_id"] == 1][0]
@@ -57,7 +57,7 @@ assert b["restarts"] >= 1, b
 assert b["frames_since_restart"] > 0, b
 PY
 done
-python3 - "$work/kill/bravo.link_stats.json" <<'PY' || fail "the restarted bravo heard nobody"
+python3 - "$work/kill/dds/bravo.link_stats.json" <<'PY' || fail "the restarted bravo heard nobody"
 import json, sys
 s = json.load(open(sys.argv[1]))
 for t in s["teammates"]:
