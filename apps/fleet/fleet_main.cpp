@@ -85,6 +85,7 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   draco::graph::RunOptions run;
   run.output_dir = out_dir;
   run.stop_requested = &g_stop;
+  run.until = draco::graph::Time::FromSeconds(draco::fleet_app::MissionLengthS(o.mission, team));
   draco::graph::ProgressPrinter progress("draco-fleet: in-process team",
                                          draco::fleet_app::MissionLengthS(o.mission, team));
   run.progress = [&](draco::graph::Time t) { progress.Update(t); };

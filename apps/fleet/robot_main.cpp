@@ -80,6 +80,10 @@ int main(int argc, char** argv) {
     draco::graph::RunOptions run;
     run.output_dir = out_dir;
     run.stop_requested = &g_stop;
+    // Every daemon of the team runs to the end of the longest replay (a robot whose recording
+    // ended keeps its link and agent going), as the in-process team does.
+    run.until = draco::graph::Time::FromSeconds(
+        draco::fleet_app::MissionLengthS(setup.mission_dir, setup.team));
     if (rate > 0.0) {
       run.rate = rate;
       run.use_graph_rate = false;

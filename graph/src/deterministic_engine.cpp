@@ -162,18 +162,22 @@ void DeterministicEngine::Dispatch(Event& ev) {
 }
 
 void DeterministicEngine::FireTimersUpTo(Time t) {
-  while (!failed()) {
-    TimerState* due = nullptr;
-    for (auto& ts : timers_) {
-      if (ts.next <= t && (due == nullptr || ts.next < due->next)) due = &ts;
-    }
-    if (due == nullptr) return;
-    if (due->next > now_) now_ = due->next;
-    const Time fire = due->next;
-    due->next = due->next + graph_.nodes[due->node]->timers[due->timer].period;
-    Pace(fire);
-    Call(due->node, Reason::kTimer, graph_.nodes[due->node]->timers[due->timer].name);
+  while (!failed() && FireNextTimerUpTo(t)) {
   }
+}
+
+bool DeterministicEngine::FireNextTimerUpTo(Time t) {
+  TimerState* due = nullptr;
+  for (auto& ts : timers_) {
+    if (ts.next <= t && (due == nullptr || ts.next < due->next)) due = &ts;
+  }
+  if (due == nullptr) return false;
+  if (due->next > now_) now_ = due->next;
+  const Time fire = due->next;
+  due->next = due->next + graph_.nodes[due->node]->timers[due->timer].period;
+  Pace(fire);
+  Call(due->node, Reason::kTimer, graph_.nodes[due->node]->timers[due->timer].name);
+  return true;
 }
 
 void DeterministicEngine::Pace(Time stamp) {
@@ -200,7 +204,7 @@ bool DeterministicEngine::StopRequested() {
 void DeterministicEngine::RunUntil(Time limit) {
   auto last_progress = std::chrono::steady_clock::now();
   std::uint64_t events = 0;
-  while (!failed() && !queue_.empty() && !StopRequested()) {
+  while (!failed() && !StopRequested()) {
     if (options_.progress && (++events & 255) == 0) {
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last_progress).count() >=
@@ -209,7 +213,12 @@ void DeterministicEngine::RunUntil(Time limit) {
         options_.progress(now_);
       }
     }
-    if (queue_.top().stamp > limit) break;
+    if (queue_.empty() || queue_.top().stamp > limit) {
+      // No event left before the limit: timers go on up to it, one at a time, and what each
+      // publishes is delivered before the next fires.
+      if (limit == Time::Max() || !FireNextTimerUpTo(limit)) break;
+      continue;
+    }
     Event ev = queue_.top();
     queue_.pop();
     FireTimersUpTo(ev.stamp);
@@ -218,7 +227,6 @@ void DeterministicEngine::RunUntil(Time limit) {
     Pace(ev.stamp);
     Dispatch(ev);
   }
-  if (!failed() && !interrupted_ && limit != Time::Max()) FireTimersUpTo(limit);
 }
 
 void DeterministicEngine::StopAll() {

@@ -59,6 +59,8 @@ class AgentComponent final : public graph::Component {
                {.doc = "a teammate map matched at most this often", .unit = "s", .min = 0.0});
     spec.Param("optimize_period_s", &o_.optimize_period_s,
                {.doc = "two-step PGO at most this often", .unit = "s", .min = 0.0});
+    spec.Param("place_unverified_teammates", &o_.place_unverified_teammates,
+               {.doc = "place teammates by the map-to-map guess before any loop is accepted"});
     spec.Param("map_sigma_m", &o_.map_sigma_m,
                {.doc = "map-to-map guess sigma in GCM", .unit = "m", .min = 0.0});
     spec.Param("map_sigma_rad", &o_.map_sigma_rad,

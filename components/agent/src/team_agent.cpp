@@ -688,6 +688,15 @@ struct TeamAgent::Impl {
         for (const auto& p : rg.poses) v.push_back(reg::Compose(T, FromPg(p)));
       }
     }
+    if (!options.place_unverified_teammates) {
+      // A teammate enters the estimate once the consistency filter accepted loops with it: a
+      // map-to-map guess alone (object-graph matching) can be wrong where structures repeat.
+      std::set<int> verified;
+      for (const auto& l : problem.loops) verified.insert(l.teammate_robot);
+      for (auto it = placed.begin(); it != placed.end();) {
+        it = it->first != own_id() && !verified.count(it->first) ? placed.erase(it) : std::next(it);
+      }
+    }
     AgentEstimate next;
     next.time_s = now_s;
     next.candidates = std::move(estimate.candidates);

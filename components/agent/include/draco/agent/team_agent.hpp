@@ -61,6 +61,9 @@ struct AgentOptions {
   // Map-to-map guess uncertainty used by GCM (sigmas).
   double map_sigma_m = 1.0;
   double map_sigma_rad = 0.05;
+  // Place teammates in the estimate by the map-to-map guess alone, before any loop with them
+  // is accepted (false: only teammates with accepted loops are placed).
+  bool place_unverified_teammates = false;
   int max_teammate_keyframes = 20000;
   int max_teammate_scans = 400;
 };
