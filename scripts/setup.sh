@@ -68,8 +68,9 @@ case "$mode" in
     configure_and_build OFF
     ;;
   demo)
-    # The main job: simulate the default three-robot marina mission (once; ~2.7 GB), replay
-    # every robot through local SLAM, evaluate against ground truth and write the report.
+    # The main job: simulate the default three-robot marina mission (once; ~2.7 GB), run the
+    # team as three draco-robot daemons over Cyclone DDS on loopback and, for comparison, in
+    # one process; evaluate the DDS run against ground truth and write the report.
     install_packages
     configure_and_build ""
     mission=${MISSION:-runs/missions/marina}
@@ -80,8 +81,8 @@ case "$mode" in
     else
       log "reusing the mission in $mission (delete it to simulate again)"
     fi
-    "$BUILD_DIR/apps/local_slam/draco-local-slam" "$mission" --out "$run_dir" "$@"
-    "$BUILD_DIR/apps/eval/draco-eval" "$run_dir" --mission "$mission"
+    "$BUILD_DIR/apps/fleet/draco-fleet" "$mission" --mode both --out "$run_dir" "$@"
+    "$BUILD_DIR/apps/eval/draco-eval" "$run_dir/dds" --mission "$mission"
     ;;
   test)
     install_packages
