@@ -3,12 +3,14 @@
 // precision and recall of PCM and GCM over the loops they emit (every loop ever newly
 // accepted, as a pose graph that never removes a factor would receive them).
 //
-//   consistency_experiment [--seeds N]
+//   consistency_experiment [--seeds N] [--all]   (--all: also first-loop covariance and
+//                                                 reference queue rows)
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "draco/consistency/filter.hpp"
 #include "synthetic.hpp"
@@ -44,8 +46,10 @@ void RunOnce(const synthetic::Mission& m, const FilterOptions& fo, Score* s) {
 
 int main(int argc, char** argv) {
   int seeds = 10;
+  bool all = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--seeds") == 0 && i + 1 < argc) seeds = std::atoi(argv[++i]);
+    if (std::strcmp(argv[i], "--all") == 0) all = true;
   }
   struct Kind {
     const char* name;
@@ -55,37 +59,71 @@ int main(int argc, char** argv) {
   const Kind kinds[] = {{"random", synthetic::OutlierKind::kRandom, false},
                         {"groups, random offset", synthetic::OutlierKind::kCorrelated, false},
                         {"groups, +-2 m along x/y", synthetic::OutlierKind::kCorrelated, true}};
+  struct Config {
+    Method method;
+    CovarianceModel cov;
+    QueueMode queue;
+    bool gate;
+    int span;
+    bool poor_guess_too;
+  };
+  std::vector<Config> configs = {
+      {Method::kPcm, CovarianceModel::kPropagated, QueueMode::kIncremental, false, 0, true},
+      {Method::kPcm, CovarianceModel::kPropagated, QueueMode::kIncremental, false, 5, false},
+      {Method::kGcm, CovarianceModel::kPropagated, QueueMode::kIncremental, false, 0, true},
+      {Method::kGcm, CovarianceModel::kPropagated, QueueMode::kIncremental, true, 0, true},
+      {Method::kGcm, CovarianceModel::kPropagated, QueueMode::kIncremental, true, 5, false}};
+  if (all) {
+    for (const Method method : {Method::kPcm, Method::kGcm}) {
+      configs.push_back(
+          {method, CovarianceModel::kFirstLoop, QueueMode::kIncremental, false, 0, false});
+      configs.push_back(
+          {method, CovarianceModel::kPropagated, QueueMode::kReference, false, 0, false});
+    }
+  }
+  // Map-to-map guess: the synthetic's (0.1 m, 0.005 rad error and sigma) and one as poor as
+  // the apps' default sigma (1 m, 0.05 rad).
+  struct Guess {
+    const char* name;
+    double sigma_m, sigma_rad;
+  };
+  const Guess guesses[] = {{"0.1 m, 0.005 rad", 0.1, 0.005}, {"1 m, 0.05 rad", 1.0, 0.05}};
   std::printf(
-      "| outliers | kind | method | covariance | queue | precision (emitted) | recall (emitted) "
-      "| precision (final set) |\n|---|---|---|---|---|---|---|---|\n");
+      "| outliers | kind | map guess | method | covariance | queue | precision (emitted) | "
+      "recall (emitted) | precision (final set) |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const Kind& kind : kinds) {
     for (const double fraction : {0.3, 0.6, 0.9}) {
-      for (const QueueMode queue : {QueueMode::kIncremental, QueueMode::kReference}) {
-        for (const Method method : {Method::kPcm, Method::kGcm}) {
-          for (const CovarianceModel cov :
-               {CovarianceModel::kFirstLoop, CovarianceModel::kPropagated}) {
-            Score s;
-            for (int seed = 1; seed <= seeds; ++seed) {
-              synthetic::MissionOptions mo;
-              mo.outlier_fraction = fraction;
-              mo.outliers = kind.kind;
-              mo.shared_offset_axis = kind.shared_axis;
-              mo.seed = static_cast<std::uint32_t>(seed);
-              const auto m = synthetic::MakeMission(mo);
-              FilterOptions fo;
-              fo.method = method;
-              fo.pairwise.covariance = cov;
-              fo.queue = queue;
-              fo.time_budget_ms = 0.0;
-              RunOnce(m, fo, &s);
-            }
-            std::printf("| %.0f %% | %s | %s | %s | %s | %.3f | %.3f | %.3f |\n", fraction * 100,
-                        kind.name, MethodName(method), CovarianceModelName(cov),
-                        queue == QueueMode::kIncremental ? "incremental" : "reference",
-                        s.emitted > 0 ? s.tp / s.emitted : 1.0, s.tp / s.inliers,
-                        s.final_accepted > 0 ? s.final_tp / s.final_accepted : 1.0);
-            std::fflush(stdout);
+      for (const Guess& guess : guesses) {
+        for (const Config& c : configs) {
+          if (guess.sigma_m > 0.5 && !c.poor_guess_too) continue;
+          Score s;
+          for (int seed = 1; seed <= seeds; ++seed) {
+            synthetic::MissionOptions mo;
+            mo.outlier_fraction = fraction;
+            mo.outliers = kind.kind;
+            mo.shared_offset_axis = kind.shared_axis;
+            mo.map_sigma_xy_m = guess.sigma_m;
+            mo.map_sigma_yaw_rad = guess.sigma_rad;
+            mo.seed = static_cast<std::uint32_t>(seed);
+            const auto m = synthetic::MakeMission(mo);
+            FilterOptions fo;
+            fo.method = c.method;
+            fo.pairwise.covariance = c.cov;
+            fo.queue = c.queue;
+            fo.map_prior_gate = c.gate;
+            fo.min_clique_span_keyframes = c.span;
+            RunOnce(m, fo, &s);
           }
+          const std::string name =
+              std::string(MethodName(c.method)) +
+              (c.method == Method::kGcm ? (c.gate ? " + map prior" : " (no prior)") : "") +
+              (c.span > 0 ? ", span " + std::to_string(c.span) : "");
+          std::printf("| %.0f %% | %s | %s | %s | %s | %s | %.3f | %.3f | %.3f |\n", fraction * 100,
+                      kind.name, guess.name, name.c_str(), CovarianceModelName(c.cov),
+                      c.queue == QueueMode::kIncremental ? "incremental" : "reference",
+                      s.emitted > 0 ? s.tp / s.emitted : 1.0, s.tp / s.inliers,
+                      s.final_accepted > 0 ? s.final_tp / s.final_accepted : 1.0);
+          std::fflush(stdout);
         }
       }
     }

@@ -436,6 +436,45 @@ TEST(Filter, GcmRejectsCorrelatedGroupThatPcmAccepts) {
   }
 }
 
+// The map-prior gate (GCM): a group sharing a 2 m offset disagrees with an accurate
+// map-to-map guess and gets no edge; without a map transform for its teammate it is not
+// gated. The span rule: a lone group over 3 own keyframes is no independent support.
+TEST(Filter, MapPriorGateAndSpanRule) {
+  World w(160);
+  std::vector<msgs::InterRobotLoop> wrong;
+  for (int g = 0; g < 6; ++g) {
+    wrong.push_back(
+        TrueLoop(w.poses[0], 40 + g / 2, 1, w.poses[1], 112 - (g + 1) / 2, {2.0, 0.0, 0.0}));
+    wrong.back().id = static_cast<std::uint64_t>(g);
+  }
+  FilterOptions fo;
+  fo.map_prior_gate = false;
+  EXPECT_EQ(ConsistencyFilter(fo).Add(wrong, w.source).accepted.size(), 6u);
+  fo.map_prior_gate = true;
+  const Decision gated = ConsistencyFilter(fo).Add(wrong, w.source);
+  EXPECT_TRUE(gated.accepted.empty());
+  EXPECT_EQ(gated.prior_gated, 6);
+  EXPECT_EQ(gated.pair_tests, 0);
+  ChainPoseSource no_maps;  // the same chains, no map transforms
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 160; ++k) {
+      no_maps.AddKeyframe(r, w.source.KeyframePose(r, k),
+                          Eigen::Vector3d(4e-4, 4e-4, 1e-6).asDiagonal());
+    }
+  }
+  EXPECT_EQ(ConsistencyFilter(fo).Add(wrong, no_maps).accepted.size(), 6u);
+  fo.min_clique_span_keyframes = 5;
+  EXPECT_TRUE(ConsistencyFilter(fo).Add(wrong, no_maps).accepted.empty());
+  // True loops spread along the trajectory pass both.
+  std::vector<msgs::InterRobotLoop> good;
+  const std::vector<std::pair<int, int>> pairs{{2, 158}, {30, 122}, {55, 97}, {90, 60}, {20, 140}};
+  for (const auto& [i, k] : pairs) {
+    good.push_back(TrueLoop(w.poses[0], i, 1, w.poses[1], k));
+    good.back().id = good.size();
+  }
+  EXPECT_EQ(ConsistencyFilter(fo).Add(good, w.source).accepted.size(), 5u);
+}
+
 TEST(Filter, IncrementalEqualsBatch) {
   for (const auto kind : {synthetic::OutlierKind::kRandom, synthetic::OutlierKind::kCorrelated}) {
     for (const auto method : {Method::kPcm, Method::kGcm}) {

@@ -10,6 +10,21 @@ const char* MethodName(Method method) { return method == Method::kPcm ? "PCM" : 
 
 ConsistencyFilter::ConsistencyFilter(const FilterOptions& options) : options_(options) {}
 
+int ConsistencyFilter::Span(const Group& group, const std::vector<int>& clique) const {
+  if (clique.empty()) return 0;
+  int lo = 0;
+  int hi = 0;
+  bool first = true;
+  for (const int v : clique) {
+    const int k = loops_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(v)])]
+                      .loop.own_keyframe;
+    lo = first ? k : std::min(lo, k);
+    hi = first ? k : std::max(hi, k);
+    first = false;
+  }
+  return hi - lo;
+}
+
 Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
                                 const PoseSource& poses) {
   using Clock = std::chrono::steady_clock;
@@ -40,9 +55,16 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     }
   }
   const std::size_t first_index = loops_.size();
+  const bool gate = options_.map_prior_gate && options_.method == Method::kGcm;
   for (const msgs::InterRobotLoop& loop : loops) {
     loops_.push_back(Prepare(loop, poses));
     accepted_.push_back(false);
+    bool gated = false;
+    if (gate) {
+      const PairwiseResult r = TestMapPrior(loops_.back(), poses, options_.pairwise);
+      gated = r.evaluated && !r.consistent;
+    }
+    gated_.push_back(gated);
   }
   const bool fast =
       options_.fast_pair_tests && !loops.empty() && tester_.Reset(loops_, poses, options_.pairwise);
@@ -61,9 +83,11 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     } else {
       for (int u = 0; u < local; ++u) against.push_back(u);
     }
+    if (gated_[index]) against.clear();
     for (const int u : against) {
-      ++decision.pair_tests;
       const int held = group.members[static_cast<std::size_t>(u)];
+      if (gated_[static_cast<std::size_t>(held)]) continue;
+      ++decision.pair_tests;
       const bool consistent = fast ? tester_.Consistent(held, static_cast<int>(index))
                                    : TestPair(loops_[static_cast<std::size_t>(held)], loops_[index],
                                               poses, options_.pairwise)
@@ -83,7 +107,8 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
       nodes_used += r.nodes;
       decision.exact = decision.exact && r.exact;
       decision.clique_nodes += r.nodes;
-      if (static_cast<int>(r.vertices.size()) >= options_.min_clique_size) {
+      if (static_cast<int>(r.vertices.size()) >= options_.min_clique_size &&
+          Span(group, r.vertices) >= options_.min_clique_span_keyframes) {
         for (const int v : r.vertices) {
           accepted_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(v)])] = true;
         }
@@ -122,7 +147,8 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     }
     // Incremental acceptance is the current clique (when large enough), per group.
     for (const int m : group.members) accepted_[static_cast<std::size_t>(m)] = false;
-    if (static_cast<int>(group.clique.size()) >= options_.min_clique_size) {
+    if (static_cast<int>(group.clique.size()) >= options_.min_clique_size &&
+        Span(group) >= options_.min_clique_span_keyframes) {
       for (const int v : group.clique) {
         accepted_[static_cast<std::size_t>(group.members[static_cast<std::size_t>(v)])] = true;
       }
@@ -130,6 +156,7 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
   }
 
   for (std::size_t i = 0; i < loops_.size(); ++i) {
+    decision.prior_gated += gated_[i] ? 1 : 0;
     const std::uint64_t id = loops_[i].loop.id;
     const bool was = i < before.size() && before[i];
     if (accepted_[i]) {

@@ -146,6 +146,22 @@ PairwiseResult TestPair(const PreparedLoop& p1, const PreparedLoop& p2, const Po
   return result;
 }
 
+PairwiseResult TestMapPrior(const PreparedLoop& z, const PoseSource& poses,
+                            const PairwiseOptions& options) {
+  PairwiseResult result;
+  if (!z.in_own_map) return result;
+  const auto own = poses.Relative(z.loop.own_robot, 0, z.loop.own_keyframe);
+  if (!own) return result;
+  result.evaluated = true;
+  const UncertainPose e = Compose(Compose(*own, z.z), Inverse(z.teammate_in_own_map));
+  result.error = ErrorVector(e.pose);
+  const Eigen::LLT<Eigen::Matrix3d> llt(e.covariance);
+  if (llt.info() != Eigen::Success) return result;
+  result.mahalanobis_squared = llt.matrixL().solve(result.error).squaredNorm();
+  result.consistent = result.mahalanobis_squared < options.chi2_threshold;
+  return result;
+}
+
 PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
                         const PoseSource& poses, const PairwiseOptions& options) {
   return TestPair(Prepare(z1, poses), Prepare(z2, poses), poses, options);

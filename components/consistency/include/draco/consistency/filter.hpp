@@ -37,6 +37,15 @@ struct FilterOptions {
   double time_budget_ms = 0.0;
   QueueMode queue = QueueMode::kIncremental;
   int reference_queue_keep = 5;
+  // A clique is accepted only when its own keyframes span at least this many keyframes:
+  // loops from one short stretch of the own trajectory (a correlated group, e.g. one
+  // registration ambiguity repeated over consecutive keyframes) are not independent support.
+  // 0: off.
+  int min_clique_span_keyframes = 0;
+  // GCM: a loop that disagrees with the map-to-map guess (TestMapPrior, same chi-square
+  // threshold) gets no edge; loops whose map transform is unknown are not gated. PCM
+  // ignores it (the reference's PCM has no prior).
+  bool map_prior_gate = true;
   // PairTester when the PoseSource has open chains (same decisions, ~10x cheaper pair
   // tests); false: TestPair for every pair, the straightforward path.
   bool fast_pair_tests = true;
@@ -50,6 +59,7 @@ struct Decision {
   std::vector<std::uint64_t> retracted;       // accepted after the previous step, not now
   bool exact = true;  // false: a clique search ran out of budget and a heuristic answered
   std::int64_t pair_tests = 0;
+  std::int64_t prior_gated = 0;  // candidates held that failed the map-prior test
   std::int64_t clique_nodes = 0;
 };
 
@@ -69,10 +79,15 @@ class ConsistencyFilter {
     std::vector<int> queue;   // reference mode: local indices still queued
   };
 
+  // Own keyframe span (max - min) of a clique (local indices; default: the group's clique).
+  int Span(const Group& group, const std::vector<int>& clique) const;
+  int Span(const Group& group) const { return Span(group, group.clique); }
+
   FilterOptions options_;
   std::vector<PreparedLoop> loops_;  // prepared with the poses of their arrival step
   PairTester tester_;
   std::vector<bool> accepted_;
+  std::vector<bool> gated_;      // failed the map-prior test at arrival
   std::map<int, Group> groups_;  // teammate (PCM) or -1 (GCM)
 };
 

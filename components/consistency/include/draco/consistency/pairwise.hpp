@@ -120,6 +120,14 @@ PairwiseResult TestPair(const PreparedLoop& z1, const PreparedLoop& z2, const Po
 PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLoop& z2,
                         const PoseSource& poses, const PairwiseOptions& options);
 
+// Unary test of one loop against the map-to-map guess: the map transform the loop implies,
+// T_{a_0 a_i} * z * inv(T_{b_0 b_k}), against MapTransform(own, teammate), i.e. the error
+// (T_{a_0 a_i} * z) * inv(T_{a_0 b_k}) with the loop's, the own marginal's (from keyframe 0)
+// and teammate_in_own_map's covariances. evaluated = false when a keyframe or the map
+// transform is unknown.
+PairwiseResult TestMapPrior(const PreparedLoop& z, const PoseSource& poses,
+                            const PairwiseOptions& options);
+
 // Symmetric 3x3 (xx, xy, xt, yy, yt, tt), the inner loops' covariance type.
 struct Sym3 {
   double xx = 0, xy = 0, xt = 0, yy = 0, yt = 0, tt = 0;
