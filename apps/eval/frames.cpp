@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "draco/cfar/cfar.hpp"
+#include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/report/sonar_frame.hpp"
 
@@ -22,17 +24,59 @@ cfar::FeatureOptions LocalSlamFeatureOptions() {
   return o;
 }
 
+// Mission time of the robot's last AHRS sample (the length of its replay), 0 when unknown.
+double MissionLengthS(const std::string& mission, const std::string& robot) {
+  std::ifstream f(fs::path(mission) / robot / "ahrs.csv", std::ios::binary | std::ios::ate);
+  if (!f) return 0.0;
+  const std::streamoff size = f.tellg();
+  const std::streamoff start = std::max<std::streamoff>(0, size - 4096);
+  f.seekg(start);
+  std::string tail(static_cast<std::size_t>(size - start), '\0');
+  f.read(tail.data(), static_cast<std::streamsize>(tail.size()));
+  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
+  const auto nl = tail.rfind('\n');
+  try {
+    return std::stod(tail.substr(nl == std::string::npos ? 0 : nl + 1));
+  } catch (const std::exception&) {
+    return 0.0;
+  }
+}
+
+// Progress of a pass over a robot's pings, at most every 5 s of mission time.
+class PingProgress {
+ public:
+  PingProgress(const std::string& label, double total_s) : printer_(label, total_s) {}
+  void Update(double t) {
+    if (t < next_s_) return;
+    next_s_ = t + 5.0;
+    last_s_ = t;
+    printer_.Update(graph::Time::FromSeconds(t));
+  }
+  void Finish() { printer_.Finish(graph::Time::FromSeconds(last_s_)); }
+  void Seen(double t) { last_s_ = std::max(last_s_, t); }
+
+ private:
+  graph::ProgressPrinter printer_;
+  double next_s_ = 0.0;
+  double last_s_ = 0.0;
+};
+
 std::vector<std::uint32_t> PickPings(const std::string& mission, const std::string& robot,
                                      int count) {
   recording::ReadOptions ro;
   ro.dvl = ro.ahrs = ro.depth = ro.ground_truth = false;
   auto reader = recording::RobotReader::Open(mission, robot, ro);
   std::vector<std::pair<double, std::uint32_t>> scored;
+  PingProgress progress("draco-eval: scoring " + robot + "'s pings",
+                        MissionLengthS(mission, robot));
   while (auto rec = reader.Next()) {
     if (const auto* ping = std::get_if<msgs::SonarPing>(&*rec)) {
       scored.push_back({report::PingStructureScore(*ping), ping->ping_id});
+      progress.Seen(ping->time_s);
+      progress.Update(ping->time_s);
     }
   }
+  progress.Finish();
   if (scored.empty()) return {};
   // Best first, at least a tenth of the mission apart so the frames show different places.
   const std::uint32_t min_gap = static_cast<std::uint32_t>(scored.size() / 10);
@@ -60,17 +104,22 @@ std::vector<report::ReportFigure> RenderFrames(const std::string& run_dir,
   fs::create_directories(fs::path(run_dir) / "frames");
   for (const auto& r : info.robots) {
     if (!options.robot.empty() && r.name != options.robot) continue;
-    std::cerr << "draco-eval: picking sonar frames of " << r.name << " ...\n";
     const auto ids = PickPings(options.mission_dir, r.name, options.per_robot);
     recording::ReadOptions ro;
     ro.dvl = ro.ahrs = ro.depth = ro.ground_truth = false;
     auto reader = recording::RobotReader::Open(options.mission_dir, r.name, ro);
     cfar::FeatureExtractor extractor(LocalSlamFeatureOptions());
     std::size_t next = 0;
+    PingProgress progress("draco-eval: drawing " + r.name + "'s frames",
+                          MissionLengthS(options.mission_dir, r.name));
     while (next < ids.size()) {
       auto rec = reader.Next();
       if (!rec) break;
       const auto* ping = std::get_if<msgs::SonarPing>(&*rec);
+      if (ping != nullptr) {
+        progress.Seen(ping->time_s);
+        progress.Update(ping->time_s);
+      }
       if (ping == nullptr || ping->ping_id != ids[next]) continue;
       ++next;
       cfar::FeatureStats stats;
@@ -88,6 +137,7 @@ std::vector<report::ReportFigure> RenderFrames(const std::string& run_dir,
       report::RenderSonarFrame(*ping, points, (fs::path(run_dir) / rel).string(), fo);
       out.push_back({rel, caption});
     }
+    progress.Finish();
   }
   return out;
 }

@@ -4,18 +4,44 @@
 // ATE RMSE (SE(2) Umeyama alignment) and RPE of the estimate and of dead reckoning at the
 // same keyframe times. Then writes team_map.png, ate.png and report.md into the run folder
 // (docs/results.md); with --mission, also sonar frames with their CFAR detections.
+// A team run (draco-fleet, draco-robot: <robot>.team.<teammate>.tum present) adds team ATE with
+// the concatenation protocol (Table III), inter-robot loops judged against ground truth
+// (<robot>.inter_loops_verdict.csv), Table II, Table IV, traffic per robot, the team map in the
+// first robot's frame and link traffic over time (link_traffic.png).
 // Exit code 1 when nothing could be evaluated.
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 
 #include "draco/report/run_report.hpp"
+#include "draco/report/team_run.hpp"
 #include "frames.hpp"
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// "draco-eval: [2/5] team run ... (1.3 s)": the steps of a long evaluation on stderr.
+class Steps {
+ public:
+  explicit Steps(int total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+  void Next(const std::string& what) {
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    std::fprintf(stderr, "draco-eval: [%d/%d] %s (%.1f s)\n", ++done_, total_, what.c_str(), s);
+  }
+
+ private:
+  int total_;
+  int done_ = 0;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-eval: trajectory accuracy, figures and report of a run folder"};
@@ -34,6 +60,10 @@ int main(int argc, char** argv) {
   app.add_flag("--no-report", no_report, "print the table only (no figures, no report.md)");
   CLI11_PARSE(app, argc, argv);
 
+  const bool team_run = draco::report::IsTeamRun(run_dir);
+  const bool with_frames = !no_report && !frames.mission_dir.empty() && frames.per_robot > 0;
+  Steps steps(1 + (team_run ? 1 : 0) + (no_report ? 0 : 2) + (with_frames ? 1 : 0));
+  steps.Next("accuracy per robot");
   const auto ev = draco::report::EvaluateRun(run_dir);
   for (const auto& p : ev.problems) std::cerr << "draco-eval: " << p << "\n";
   std::printf("%-12s %6s %9s %11s %11s %7s %11s %11s\n", "robot", "kfs", "path m", "DR ATE m",
@@ -51,6 +81,32 @@ int main(int argc, char** argv) {
     std::cerr << "draco-eval: nothing to evaluate in " << run_dir << "\n";
     return 1;
   }
+  draco::report::TeamResult team;
+  if (team_run) {
+    steps.Next("team run: team ATE, inter-robot loops, link");
+    try {
+      team = draco::report::EvaluateTeamRun(run_dir, frames.mission_dir);
+    } catch (const std::exception& e) {
+      std::cerr << "draco-eval: team run: " << e.what() << "\n";
+      return 1;
+    }
+    for (const auto& p : team.problems) std::cerr << "draco-eval: " << p << "\n";
+    std::printf("\n%s", draco::report::FormatTeamResult(team, "team run").c_str());
+    const auto& c = team.distinct_loops;
+    if (team.has_truth) {
+      auto pct = [](double v) {
+        char b[32];
+        std::snprintf(b, sizeof b, std::isfinite(v) ? "%.1f %%" : "-", 100.0 * v);
+        return std::string(b);
+      };
+      std::printf(
+          "\ninter-robot loops (each once, TP within 1.5 m and 15 deg of ground truth): %d "
+          "candidates, %d TP (precision %s); %d accepted, %d TP (precision %s, recall proxy "
+          "%s)\n",
+          c.candidates, c.tp_candidates, pct(c.PrecisionBefore()).c_str(), c.accepted,
+          c.tp_accepted, pct(c.PrecisionAfter()).c_str(), pct(c.RecallProxy()).c_str());
+    }
+  }
   if (!no_report) {
     try {
       draco::report::ReportContent content;
@@ -59,10 +115,27 @@ int main(int argc, char** argv) {
         content.command += " --mission " + frames.mission_dir;
         if (!frames.robot.empty()) content.command += " --robot " + frames.robot;
       }
-      content.figures = draco::report::RenderRunFigures(ev);
-      if (!frames.mission_dir.empty() && frames.per_robot > 0) {
+      steps.Next("figures");
+      if (team_run) {
+        const auto team_figures = draco::report::RenderTeamFigures(team, 0);
+        for (const auto& f : team_figures) {
+          if (f.path == "team_map.png") content.figures.push_back(f);
+        }
+        for (const auto& f : draco::report::RenderRunFigures(ev, "local_maps.png")) {
+          content.figures.push_back(f);
+        }
+        content.sections.push_back(draco::report::TeamReportMarkdown(team, team_figures));
+        for (const auto& p : draco::report::WriteLoopVerdicts(team)) {
+          std::printf("loop verdicts: %s\n", p.c_str());
+        }
+      } else {
+        content.figures = draco::report::RenderRunFigures(ev);
+      }
+      if (with_frames) {
+        steps.Next("sonar frames with CFAR detections");
         content.frames = draco::eval_app::RenderFrames(run_dir, frames);
       }
+      steps.Next("report.md");
       const std::string path = draco::report::WriteReport(ev, content);
       std::printf("report: %s\n", fs::absolute(path).string().c_str());
     } catch (const std::exception& e) {

@@ -177,13 +177,13 @@ RunEvaluation EvaluateRun(const std::string& run_dir) {
   return ev;
 }
 
-std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev) {
+std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::string& map_png) {
   std::vector<ReportFigure> out;
   if (ev.robots.empty()) return out;
   const fs::path dir(ev.run_dir);
   TeamMap map;
-  map.title = "Team map: " + fs::path(ev.run_dir).filename().string() +
-              " (local SLAM aligned to ground truth)";
+  map.title = (map_png == "team_map.png" ? "Team map: " : "Local maps: ") +
+              fs::path(ev.run_dir).filename().string() + " (local SLAM aligned to ground truth)";
   for (const auto& r : ev.robots) {
     RobotLayer layer;
     layer.name = r.robot;
@@ -201,10 +201,11 @@ std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev) {
     }
     map.robots.push_back(std::move(layer));
   }
-  RenderTeamMap(map, (dir / "team_map.png").string());
-  out.push_back({"team_map.png",
-                 "Team map: each robot's local-SLAM trajectory (solid, aligned to ground truth by "
-                 "SE(2) Umeyama), ground truth (dashed), point-cloud map (dots)."});
+  RenderTeamMap(map, (dir / map_png).string());
+  out.push_back(
+      {map_png, std::string(map_png == "team_map.png" ? "Team map" : "Local maps") +
+                    ": each robot's local-SLAM trajectory (solid, aligned to ground truth by "
+                    "SE(2) Umeyama), ground truth (dashed), point-cloud map (dots)."});
 
   std::vector<std::string> names;
   BarSeries dr{"dead reckoning", {}, Rgb{150, 150, 150}};
@@ -281,6 +282,8 @@ std::string ReportMarkdown(const RunEvaluation& ev, const ReportContent& content
     md << (i ? ", " : "") << "`" << kTableIIIVariants[i].tag << "`";
   }
   md << ").\n\n";
+
+  for (const auto& section : content.sections) md << section;
 
   if (!ev.runtime_total.empty()) {
     md << "## Runtime per component (Table I layout)\n\nOver " << ev.runtimes.size()

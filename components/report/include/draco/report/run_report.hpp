@@ -81,11 +81,16 @@ struct ReportContent {
   std::string command;  // how the report was produced
   std::vector<ReportFigure> figures;
   std::vector<ReportFigure> frames;
+  // Further Markdown sections (the team run's tables and figures), after the ATE table.
+  std::vector<std::string> sections;
 };
 
-// Renders team_map.png (estimates aligned to ground truth, with ground truth and point clouds)
-// and ate.png (dead reckoning vs local SLAM per robot) into the run folder; returns them.
-std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& evaluation);
+// Renders the local map (each robot's local SLAM aligned to ground truth, with ground truth and
+// point clouds; team_map.png unless map_png says otherwise, e.g. local_maps.png in a team run
+// whose team_map.png is the team estimate) and ate.png (dead reckoning vs local SLAM per robot)
+// into the run folder; returns them. report.md shows team_map.png first.
+std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& evaluation,
+                                           const std::string& map_png = "team_map.png");
 
 std::string ReportMarkdown(const RunEvaluation& evaluation, const ReportContent& content);
 
