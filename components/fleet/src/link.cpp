@@ -118,50 +118,55 @@ void LinkEndpoint::Queue(FleetKind kind, int destination, std::vector<std::uint8
 void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
   bool anyone = false;
   for (const auto& [id, t] : teammates_) anyone = anyone || (t.known && !t.left);
-  try {
-    if (out.has_poses) own_keyframes_ = static_cast<int>(out.poses.size());
-    if (!anyone) return;  // nobody listening yet: keep the deltas for the first contact
-    if (out.has_poses) {
-      msgs::KeyframePoses update;
-      if (pose_encoder_.MakeUpdate(out.poses, send_full_poses_, &update)) {
-        update.header = Header(FleetKind::kKeyframePoses, now_s);
-        Queue(FleetKind::kKeyframePoses, -1, Encode(update, options_.codec), now_s);
+  if (out.has_poses) own_keyframes_ = static_cast<int>(out.poses.size());
+  if (!anyone) return;  // nobody listening yet: keep the deltas for the first contact
+  // One message that breaks a bound is counted and not sent; the others go.
+  auto queue = [&](FleetKind kind, int destination, const auto& message) {
+    try {
+      Queue(kind, destination, Encode(message, options_.codec), now_s);
+    } catch (const std::exception& e) {
+      ++counters_.encode_errors;
+      counters_.last_encode_error = std::string(msgs::FleetKindName(kind)) + ": " + e.what();
+    }
+  };
+  if (out.has_poses) {
+    msgs::KeyframePoses update;
+    if (pose_encoder_.MakeUpdate(out.poses, send_full_poses_, &update)) {
+      update.header = Header(FleetKind::kKeyframePoses, now_s);
+      queue(FleetKind::kKeyframePoses, -1, update);
+    }
+    send_full_poses_ = false;
+  }
+  if (out.has_object_map) {
+    // Delta against the version every listening teammate holds; full when they differ.
+    std::uint32_t base = 0;
+    bool first = true;
+    for (const auto& [id, t] : teammates_) {
+      if (!t.known || t.left) continue;
+      if (first) {
+        base = t.acked_own_version;
+        first = false;
+      } else if (t.acked_own_version != base) {
+        base = 0;
       }
-      send_full_poses_ = false;
     }
-    if (out.has_object_map) {
-      // Delta against the version every listening teammate holds; full when they differ.
-      std::uint32_t base = 0;
-      bool first = true;
-      for (const auto& [id, t] : teammates_) {
-        if (!t.known || t.left) continue;
-        if (first) {
-          base = t.acked_own_version;
-          first = false;
-        } else if (t.acked_own_version != base) {
-          base = 0;
-        }
-      }
-      msgs::ObjectMapUpdate update;
-      if (object_encoder_.MakeUpdate(out.object_map, base, &update)) {
-        update.header = Header(FleetKind::kObjectMap, now_s);
-        Queue(FleetKind::kObjectMap, -1, Encode(update, options_.codec), now_s);
-      }
+    msgs::ObjectMapUpdate update;
+    if (object_encoder_.MakeUpdate(out.object_map, base, &update)) {
+      update.header = Header(FleetKind::kObjectMap, now_s);
+      queue(FleetKind::kObjectMap, -1, update);
     }
-    for (auto r : out.requests) {
-      r.header = Header(FleetKind::kScanRequest, now_s);
-      Queue(FleetKind::kScanRequest, r.target_robot, Encode(r, options_.codec), now_s);
-    }
-    for (auto r : out.replies) {
-      r.header = Header(FleetKind::kScanReply, now_s);
-      Queue(FleetKind::kScanReply, r.requester_robot, Encode(r, options_.codec), now_s);
-    }
-    for (auto l : out.loops) {
-      l.header = Header(FleetKind::kLoopClosures, now_s);
-      Queue(FleetKind::kLoopClosures, l.target_robot, Encode(l, options_.codec), now_s);
-    }
-  } catch (const std::invalid_argument&) {
-    ++counters_.encode_errors;  // a message of ours broke a bound: not sent
+  }
+  for (auto r : out.requests) {
+    r.header = Header(FleetKind::kScanRequest, now_s);
+    queue(FleetKind::kScanRequest, r.target_robot, r);
+  }
+  for (auto r : out.replies) {
+    r.header = Header(FleetKind::kScanReply, now_s);
+    queue(FleetKind::kScanReply, r.requester_robot, r);
+  }
+  for (auto l : out.loops) {
+    l.header = Header(FleetKind::kLoopClosures, now_s);
+    queue(FleetKind::kLoopClosures, l.target_robot, l);
   }
 }
 
@@ -381,8 +386,9 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
     }
     try {
       Queue(FleetKind::kHeartbeat, -1, Encode(hb, options_.codec), now_s);
-    } catch (const std::invalid_argument&) {
+    } catch (const std::exception& e) {
       ++counters_.encode_errors;
+      counters_.last_encode_error = std::string("heartbeat: ") + e.what();
     }
   }
   // The modem works between ticks: what finishes by the next tick is handed over now, marked
@@ -445,7 +451,8 @@ std::string LinkEndpoint::StatsJson() const {
     << ", \"not_for_us\": " << counters_.not_for_us << ", \"rejected\": " << counters_.rejected
     << ", \"header_mismatch\": " << counters_.header_mismatch
     << ", \"inbox_overflow\": " << counters_.inbox_overflow
-    << ", \"encode_errors\": " << counters_.encode_errors
+    << ", \"encode_errors\": " << counters_.encode_errors << ", \"last_encode_error\": \""
+    << JsonEscape(counters_.last_encode_error) << "\""
     << ", \"lockstep_timeouts\": " << counters_.lockstep_timeouts
     << ", \"lockstep_wait_s\": " << counters_.lockstep_wait_s
     << ", \"transport_frames_sent\": " << tc.frames_sent

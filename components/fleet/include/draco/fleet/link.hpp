@@ -79,6 +79,7 @@ struct LinkCounters {
   std::uint64_t header_mismatch = 0;  // message header robot differs from the frame source
   std::uint64_t inbox_overflow = 0;
   std::uint64_t encode_errors = 0;  // own messages that broke a bound (not sent)
+  std::string last_encode_error;    // what the last such message broke
   std::uint64_t lockstep_timeouts = 0;
   double lockstep_wait_s = 0.0;  // wall seconds spent waiting
 };
