@@ -414,7 +414,10 @@ TeamResult EvaluateTeamRun(const std::string& run_dir, const std::string& missio
     const auto& local = keyframes[i];
     r.keyframes = static_cast<int>(local.size());
     if (!local.empty()) r.mission_s = local.back().time_s - local.front().time_s;
-    if (const fs::path rt = dir / (name + ".runtime_stats.json"); fs::exists(rt)) {
+    // Mission time: the robot's runtime statistics (a daemon's), else the team's (in-process).
+    fs::path rt = dir / (name + ".runtime_stats.json");
+    if (!fs::exists(rt)) rt = dir / "runtime_stats.json";
+    if (fs::exists(rt)) {
       try {
         r.mission_s = std::max(r.mission_s, ReadRuntimeStats(rt.string()).mission_s);
       } catch (const std::exception& e) {

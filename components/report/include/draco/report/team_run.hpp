@@ -127,7 +127,7 @@ struct RobotResult {
   int candidates = 0;         // inter-robot loop candidates
   int accepted = 0;           // accepted by the consistency filter
   LoopCounts loops;           // with the verdict (judged = 0 without ground truth)
-  double mission_s = 0.0;
+  double mission_s = 0.0;     // runtime_stats.json's mission time, at least the keyframe span
   // Link (from <robot>.link_stats.json)
   double bits_sent = 0.0;
   double mean_bps = 0.0;
