@@ -32,6 +32,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "draco/report/team_run.hpp"
 #include "team_setup.hpp"
 
 namespace {
@@ -267,18 +268,18 @@ int main(int argc, char** argv) {
     fs::create_directories(o.out);
     std::string report =
         "# Fleet run: " + info.name + "\n\nMission `" + o.mission + "`, graph `" + o.graph + "`.\n";
-    std::map<std::string, draco::fleet_app::TeamResult> results;
+    std::map<std::string, draco::report::TeamResult> results;
     int rc = 0;
     for (const std::string m : {"inproc", "dds"}) {
       if (mode != "both" && mode != m) continue;
       const std::string dir = o.out + "/" + m;
       const int code = m == "dds" ? RunDds(o, team, dir) : RunInProcess(o, info, team, dir);
       if (code != 0) rc = code;
-      results[m] = draco::fleet_app::EvaluateTeamRun(dir, o.mission, team);
+      results[m] = draco::report::EvaluateTeamRun(dir, o.mission, team);
       const std::string title =
           m == "dds" ? "DDS, one daemon per robot (" + dir + ")" : "in-process (" + dir + ")";
-      std::printf("\n%s", draco::fleet_app::FormatTeamResult(results[m], title).c_str());
-      report += "\n## " + title + "\n\n" + draco::fleet_app::TeamResultMarkdown(results[m]);
+      std::printf("\n%s", draco::report::FormatTeamResult(results[m], title).c_str());
+      report += "\n## " + title + "\n\n" + draco::report::TeamResultMarkdown(results[m]);
     }
     if (results.size() == 2) {
       // Same result within 10 %: accepted loops and team ATE, per robot.

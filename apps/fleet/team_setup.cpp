@@ -2,18 +2,12 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <numbers>
-#include <sstream>
 #include <stdexcept>
-
-#include "draco/eval/trajectory.hpp"
 
 namespace draco::fleet_app {
 namespace fs = std::filesystem;
@@ -66,11 +60,6 @@ double LastTimeS(const std::string& path) {
   } catch (const std::exception&) {
     return 0.0;
   }
-}
-
-eval::Trajectory ReadIfExists(const fs::path& p) {
-  if (!fs::exists(p)) return {};
-  return eval::ReadTum(p.string());
 }
 
 }  // namespace
@@ -143,148 +132,6 @@ double MissionLengthS(const std::string& mission_dir, const std::vector<std::str
     t = std::max(t, LastTimeS((fs::path(mission_dir) / r / "ahrs.csv").string()));
   }
   return t;
-}
-
-TeamResult EvaluateTeamRun(const std::string& run_dir, const std::string& mission_dir,
-                           const std::vector<std::string>& team) {
-  constexpr double kSegmentOffsetS = 1e5;
-  TeamResult out;
-  std::map<std::string, KindSizes> kinds;
-  std::vector<std::string> kind_order;
-  const fs::path dir(run_dir);
-  std::vector<eval::Trajectory> truth(team.size());
-  for (std::size_t i = 0; i < team.size(); ++i) {
-    truth[i] = ReadIfExists(fs::path(mission_dir) / team[i] / "groundtruth.tum");
-  }
-  for (std::size_t i = 0; i < team.size(); ++i) {
-    const std::string& name = team[i];
-    RobotResult r;
-    r.name = name;
-    const auto local = ReadIfExists(dir / (name + ".trajectory.tum"));
-    const auto dr = ReadIfExists(dir / (name + ".dead_reckoning.tum"));
-    r.keyframes = static_cast<int>(local.size());
-    if (!local.empty() && !truth[i].empty()) {
-      r.local_ate_m = eval::Ate(local, truth[i]).rmse_m;
-      r.dr_ate_m = eval::Ate(dr, truth[i]).rmse_m;
-      r.mission_s = local.back().time_s - local.front().time_s;
-    }
-    // The paper's protocol: own trajectory, then the teammates' in mission order, each segment
-    // shifted in time, one SE(2) alignment.
-    eval::Trajectory est_all, truth_all;
-    int segment = 0;
-    auto append = [&](const eval::Trajectory& est, const eval::Trajectory& gt) {
-      for (auto p : est) {
-        p.time_s += segment * kSegmentOffsetS;
-        est_all.push_back(p);
-      }
-      for (auto p : gt) {
-        p.time_s += segment * kSegmentOffsetS;
-        truth_all.push_back(p);
-      }
-      ++segment;
-    };
-    std::vector<std::size_t> order{i};
-    for (std::size_t j = 0; j < team.size(); ++j) {
-      if (j != i) order.push_back(j);
-    }
-    for (std::size_t j : order) {
-      const auto est = ReadIfExists(dir / (name + ".team." + team[j] + ".tum"));
-      if (est.empty() || truth[j].empty()) continue;
-      ++r.placed;
-      append(est, truth[j]);
-    }
-    if (!est_all.empty()) r.team_ate_m = eval::Ate(est_all, truth_all).rmse_m;
-    if (std::ifstream f(dir / (name + ".inter_loops.csv")); f) {
-      std::string line;
-      std::getline(f, line);
-      while (std::getline(f, line)) {
-        if (line.empty()) continue;
-        ++r.candidates;
-        if (line.back() == '1') ++r.accepted;
-      }
-    }
-    if (std::ifstream f(dir / (name + ".link_stats.json")); f) {
-      nlohmann::json j;
-      try {
-        j = nlohmann::json::parse(f);
-      } catch (const std::exception& e) {
-        throw std::runtime_error((dir / (name + ".link_stats.json")).string() + ": " + e.what());
-      }
-      for (const auto& [kind, v] : j["kinds"].items()) {
-        auto& k = kinds[kind];
-        if (k.kind.empty()) {
-          k.kind = kind;
-          kind_order.push_back(kind);
-        }
-        k.frames += v["frames_sent"].get<double>();
-        k.bits += v["bits_sent"].get<double>();
-        k.max_bits = std::max(k.max_bits, v["max_bits"].get<double>());
-        k.dropped += v["dropped_queue"].get<double>() + v["dropped_expired"].get<double>() +
-                     v["lost"].get<double>();
-        k.rejected += v["rejected"].get<double>();
-        r.bits_sent += v["bits_sent"].get<double>();
-      }
-      for (const auto& t : j["teammates"]) {
-        const int id = t["robot_id"].get<int>();
-        const std::string tn =
-            id >= 0 && id < static_cast<int>(team.size()) ? team[id] : std::to_string(id);
-        r.teammate_frames[tn] = t["frames_received"].get<double>();
-        r.restarts_seen += t.value("restarts", 0);
-      }
-    }
-    if (r.mission_s > 0) r.mean_bps = r.bits_sent / r.mission_s;
-    out.robots.push_back(r);
-  }
-  for (const auto& k : kind_order) out.kinds.push_back(kinds[k]);
-  return out;
-}
-
-std::string FormatTeamResult(const TeamResult& t, const std::string& title) {
-  std::ostringstream o;
-  char line[256];
-  o << title << "\n";
-  std::snprintf(line, sizeof line, "%-9s %5s %8s %8s %8s %6s %6s %6s %9s %8s\n", "robot", "kfs",
-                "DR m", "local m", "team m", "placed", "cand", "accept", "sent kbit", "mean bps");
-  o << line;
-  for (const auto& r : t.robots) {
-    std::snprintf(line, sizeof line, "%-9s %5d %8.3f %8.3f %8.3f %6d %6d %6d %9.1f %8.0f\n",
-                  r.name.c_str(), r.keyframes, r.dr_ate_m, r.local_ate_m, r.team_ate_m, r.placed,
-                  r.candidates, r.accepted, r.bits_sent / 1000.0, r.mean_bps);
-    o << line;
-  }
-  std::snprintf(line, sizeof line, "\n%-15s %7s %10s %9s %8s %8s\n", "message", "frames",
-                "mean bits", "max bits", "dropped", "rejected");
-  o << line;
-  for (const auto& k : t.kinds) {
-    std::snprintf(line, sizeof line, "%-15s %7.0f %10.0f %9.0f %8.0f %8.0f\n", k.kind.c_str(),
-                  k.frames, k.frames > 0 ? k.bits / k.frames : 0.0, k.max_bits, k.dropped,
-                  k.rejected);
-    o << line;
-  }
-  return o.str();
-}
-
-std::string TeamResultMarkdown(const TeamResult& t) {
-  std::ostringstream o;
-  char line[256];
-  o << "| robot | keyframes | DR ATE m | local ATE m | team ATE m | robots placed | candidates "
-       "| accepted | sent kbit | mean bps |\n|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const auto& r : t.robots) {
-    std::snprintf(line, sizeof line,
-                  "| %s | %d | %.3f | %.3f | %.3f | %d | %d | %d | %.1f | %.0f |\n", r.name.c_str(),
-                  r.keyframes, r.dr_ate_m, r.local_ate_m, r.team_ate_m, r.placed, r.candidates,
-                  r.accepted, r.bits_sent / 1000.0, r.mean_bps);
-    o << line;
-  }
-  o << "\n| message | frames | mean bits | max bits | dropped | rejected "
-       "|\n|---|---|---|---|---|---|\n";
-  for (const auto& k : t.kinds) {
-    std::snprintf(line, sizeof line, "| %s | %.0f | %.0f | %.0f | %.0f | %.0f |\n", k.kind.c_str(),
-                  k.frames, k.frames > 0 ? k.bits / k.frames : 0.0, k.max_bits, k.dropped,
-                  k.rejected);
-    o << line;
-  }
-  return o.str();
 }
 
 }  // namespace draco::fleet_app

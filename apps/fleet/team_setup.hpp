@@ -1,9 +1,7 @@
 // What draco-robot (one daemon per robot) and draco-fleet (a whole team) share: the
-// per-robot settings of the robot graph, the in-process team graph, and the evaluation of a
-// team run's outputs (team ATE with the paper's concatenation protocol, link statistics).
+// per-robot settings of the robot graph and the in-process team graph.
 #pragma once
 
-#include <map>
 #include <string>
 #include <vector>
 
@@ -35,39 +33,7 @@ std::string ComposeTeamGraph(const std::string& robot_graph_path,
 // Mission time of the longest robot replay (for progress), from the AHRS streams.
 double MissionLengthS(const std::string& mission_dir, const std::vector<std::string>& team);
 
-// A team run's outputs in one folder (files <robot>.*), evaluated against ground truth.
-struct RobotResult {
-  std::string name;
-  int keyframes = 0;
-  double dr_ate_m = -1.0;     // own dead reckoning
-  double local_ate_m = -1.0;  // own local SLAM
-  double team_ate_m = -1.0;   // own + placed teammates, concatenated, one SE(2) alignment
-  int placed = 0;             // robots in the estimate (own included)
-  int candidates = 0;         // inter-robot loop candidates
-  int accepted = 0;           // accepted by the consistency filter
-  double mission_s = 0.0;
-  // Link (from <robot>.link_stats.json)
-  double bits_sent = 0.0;
-  double mean_bps = 0.0;
-  int restarts_seen = 0;                          // teammate restarts this robot noticed
-  std::map<std::string, double> teammate_frames;  // frames received per teammate name
-};
-struct KindSizes {
-  std::string kind;
-  double frames = 0.0;
-  double bits = 0.0;
-  double max_bits = 0.0;
-  double dropped = 0.0;
-  double rejected = 0.0;
-};
-struct TeamResult {
-  std::vector<RobotResult> robots;
-  std::vector<KindSizes> kinds;  // summed over robots
-};
-TeamResult EvaluateTeamRun(const std::string& run_dir, const std::string& mission_dir,
-                           const std::vector<std::string>& team);
-// Tables: per robot (ATE, loops, traffic), message sizes per kind (mean and max bits).
-std::string FormatTeamResult(const TeamResult& result, const std::string& title);
-std::string TeamResultMarkdown(const TeamResult& result);
+// The evaluation of a team run's outputs (EvaluateTeamRun, FormatTeamResult,
+// TeamResultMarkdown) lives in the report library: draco/report/team_run.hpp.
 
 }  // namespace draco::fleet_app
