@@ -475,6 +475,36 @@ TEST(Filter, MapPriorGateAndSpanRule) {
   EXPECT_EQ(ConsistencyFilter(fo).Add(good, w.source).accepted.size(), 5u);
 }
 
+// Map frames that do not start at the first keyframe (the agent's case): every robot's map
+// frame is the world, map transforms the identity. The gate and GCM's cross-teammate pairs
+// use InMap, so true loops pass and a shifted group is still gated.
+TEST(Filter, MapFramesNeedNotStartAtTheFirstKeyframe) {
+  World w(160);
+  ChainPoseSource world_frames;
+  for (int r = 0; r < 3; ++r) {
+    for (const auto& p : w.poses[static_cast<std::size_t>(r)]) {
+      world_frames.AddKeyframe(r, p, Eigen::Vector3d(4e-4, 4e-4, 1e-6).asDiagonal());
+    }
+  }
+  for (int b = 1; b < 3; ++b) {
+    world_frames.SetMapTransform(0, b, {Pose2{}, Eigen::Vector3d(0.01, 0.01, 1e-5).asDiagonal()});
+  }
+  ASSERT_GT(std::hypot(w.poses[1][0].x_m, w.poses[1][0].y_m), 10.0);
+  std::vector<msgs::InterRobotLoop> loops;
+  const std::vector<std::pair<int, int>> true1{{2, 158}, {30, 122}, {55, 97}, {90, 60}};
+  for (const auto& [i, k] : true1) loops.push_back(TrueLoop(w.poses[0], i, 1, w.poses[1], k));
+  const std::vector<std::pair<int, int>> true2{{0, 0}, {20, 46}, {45, 70}, {60, 30}};
+  for (const auto& [i, k] : true2) loops.push_back(TrueLoop(w.poses[0], i, 2, w.poses[2], k));
+  for (int g = 0; g < 6; ++g) {
+    loops.push_back(
+        TrueLoop(w.poses[0], 40 + g / 2, 1, w.poses[1], 112 - (g + 1) / 2, {2.0, 0.0, 0.0}));
+  }
+  for (std::size_t id = 0; id < loops.size(); ++id) loops[id].id = id;
+  const Decision d = ConsistencyFilter().Add(loops, world_frames);
+  EXPECT_EQ(d.accepted, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5, 6, 7}));
+  EXPECT_EQ(d.prior_gated, 6);
+}
+
 TEST(Filter, IncrementalEqualsBatch) {
   for (const auto kind : {synthetic::OutlierKind::kRandom, synthetic::OutlierKind::kCorrelated}) {
     for (const auto method : {Method::kPcm, Method::kGcm}) {

@@ -82,6 +82,20 @@ std::optional<UncertainPose> ChainPoseSource::MapTransform(int own_robot, int te
   return it->second;
 }
 
+std::optional<UncertainPose> ChainPoseSource::InMap(int robot, int keyframe) const {
+  const auto it = chains_.find(robot);
+  if (it == chains_.end()) return std::nullopt;
+  const Chain& chain = it->second;
+  if (keyframe < 0 || keyframe >= static_cast<int>(chain.poses.size())) return std::nullopt;
+  // T_map_k = T_map_0 * T_0_k with T_map_0 fixed: the covariance rotated into the map frame.
+  Eigen::Matrix3d J_b;
+  Compose(chain.poses.front(), chain.from_first[static_cast<std::size_t>(keyframe)], nullptr, &J_b);
+  UncertainPose p;
+  p.pose = chain.poses[static_cast<std::size_t>(keyframe)];
+  p.covariance = J_b * chain.cumulative[static_cast<std::size_t>(keyframe)] * J_b.transpose();
+  return p;
+}
+
 PoseSource::Chain ChainPoseSource::OpenChain(int robot) const {
   const auto it = chains_.find(robot);
   if (it == chains_.end()) return {};
@@ -99,7 +113,7 @@ PreparedLoop Prepare(const msgs::InterRobotLoop& loop, const PoseSource& poses) 
   p.information_valid = llt.info() == Eigen::Success;
   if (p.information_valid) p.information = llt.solve(Eigen::Matrix3d::Identity());
   const auto T_a_b = poses.MapTransform(loop.own_robot, loop.teammate_robot);
-  const auto x_b = poses.Relative(loop.teammate_robot, 0, loop.teammate_keyframe);
+  const auto x_b = poses.InMap(loop.teammate_robot, loop.teammate_keyframe);
   if (T_a_b && x_b) {
     p.in_own_map = true;
     p.teammate_in_own_map = Compose(*T_a_b, *x_b);
@@ -150,7 +164,7 @@ PairwiseResult TestMapPrior(const PreparedLoop& z, const PoseSource& poses,
                             const PairwiseOptions& options) {
   PairwiseResult result;
   if (!z.in_own_map) return result;
-  const auto own = poses.Relative(z.loop.own_robot, 0, z.loop.own_keyframe);
+  const auto own = poses.InMap(z.loop.own_robot, z.loop.own_keyframe);
   if (!own) return result;
   result.evaluated = true;
   const UncertainPose e = Compose(Compose(*own, z.z), Inverse(z.teammate_in_own_map));

@@ -49,6 +49,12 @@ class PoseSource {
   // T_{own_0}^{teammate_0}: the teammate's map frame in the own map frame (graph matching
   // or accepted loops), with covariance. nullopt when not known yet.
   virtual std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const = 0;
+  // The keyframe's pose in the robot's map frame (the frame MapTransform relates), with the
+  // covariance of that pose relative to the first keyframe. Default: Relative(robot, 0, k),
+  // the first keyframe being the map origin.
+  virtual std::optional<UncertainPose> InMap(int robot, int keyframe) const {
+    return Relative(robot, 0, keyframe);
+  }
 
   // Optional, for PairTester: when the robot's poses form an open chain, its keyframes in the
   // first keyframe's frame (T_{r_0 r_k}) and their covariances, such that Relative(r, i, j)
@@ -75,6 +81,8 @@ class ChainPoseSource : public PoseSource {
   std::optional<UncertainPose> Relative(int robot, int from_keyframe,
                                         int to_keyframe) const override;
   std::optional<UncertainPose> MapTransform(int own_robot, int teammate) const override;
+  // The pose as added (its map frame need not start at the first keyframe).
+  std::optional<UncertainPose> InMap(int robot, int keyframe) const override;
   Chain OpenChain(int robot) const override;
 
  private:
@@ -100,7 +108,7 @@ struct PairwiseOptions {
 };
 
 // The per-loop parts of the test, computed once per loop: inv(z) and the teammate keyframe
-// in the own map frame, T_{a_0 b_k} = T_{a_0 b_0} * x_{b_0 b_k} (when the map transform is
+// in the own map frame, T_{a_0 b_k} = T_{a_0 b_0} * InMap(b, k) (when the map transform is
 // known), both with covariances.
 struct PreparedLoop {
   msgs::InterRobotLoop loop;
@@ -122,8 +130,8 @@ PairwiseResult TestPair(const msgs::InterRobotLoop& z1, const msgs::InterRobotLo
 
 // Unary test of one loop against the map-to-map guess: the map transform the loop implies,
 // T_{a_0 a_i} * z * inv(T_{b_0 b_k}), against MapTransform(own, teammate), i.e. the error
-// (T_{a_0 a_i} * z) * inv(T_{a_0 b_k}) with the loop's, the own marginal's (from keyframe 0)
-// and teammate_in_own_map's covariances. evaluated = false when a keyframe or the map
+// (InMap(a, i) * z) * inv(T_{a_0 b_k}) with the loop's, the own keyframe's (InMap) and
+// teammate_in_own_map's covariances. evaluated = false when a keyframe or the map
 // transform is unknown.
 PairwiseResult TestMapPrior(const PreparedLoop& z, const PoseSource& poses,
                             const PairwiseOptions& options);
