@@ -345,11 +345,14 @@ std::string TeamReportMarkdown(const TeamResult& t, const std::vector<ReportFigu
        << "|---|---:|---:|---:|---:|---:|---|\n";
     for (const auto& k : t.kinds) {
       const double mean = k.frames > 0 ? k.bits / k.frames : kNan;
-      std::string goal = "";
-      if (k.kind == "object_map")
-        goal = std::isfinite(mean) && mean > 700 ? "<= 700: **missed**" : "<= 700: met";
-      if (k.kind == "scan_reply")
-        goal = std::isfinite(mean) && mean > 4000 ? "<= 4000: **missed**" : "<= 4000: met";
+      std::string goal;
+      const double limit = k.kind == "object_map" ? 700.0 : k.kind == "scan_reply" ? 4000.0 : 0.0;
+      if (limit > 0) {
+        goal = "<= " + Fixed(limit, 0) +
+               (!std::isfinite(mean) ? ": no frames"
+                : mean > limit       ? ": **missed**"
+                                     : ": met");
+      }
       md << "| " << k.kind << " | " << Fixed(k.frames, 0) << " | " << Fixed(mean, 0) << " | "
          << Fixed(k.max_bits, 0) << " | " << Fixed(k.dropped, 0) << " | " << Fixed(k.rejected, 0)
          << " | " << goal << " |\n";
