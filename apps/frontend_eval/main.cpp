@@ -6,12 +6,14 @@
 // transform between the two map frames), scan-request selection, and sliding-window
 // registration for w in {0, 1, 3}, judged against the ground-truth relative pose at the
 // keyframe times (true positive: within 1.5 m and 15 deg). Prints precision and
-// true-positive count per (w, overlap threshold) and writes CSVs.
+// true-positive count per (w, overlap threshold), writes CSVs and fig3.png (both against the
+// threshold, one line per window).
 //
 //   draco-frontend-eval /tmp/marina --out runs/frontend-marina
 //   draco-frontend-eval /tmp/marina --out runs/frontend-marina --reuse   (cached keyframes)
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -24,6 +26,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
+#include "draco/report/figures.hpp"
 
 namespace {
 
@@ -261,6 +264,8 @@ int main(int argc, char** argv) {
       reg_csv += line;
     }
     std::string prec_csv = "window,threshold,detections,true_positives,precision\n";
+    // Fig. 3: precision and true positives against the threshold, one line per window.
+    draco::report::ChartPanel fig_prec, fig_tp;
     std::printf("\nmission %s (%s): %zu robots, local SLAM %.1f s wall\n", info.name.c_str(),
                 info.world.c_str(), robots.size(), slam_s);
     for (const auto& r : robots) {
@@ -279,10 +284,16 @@ int main(int argc, char** argv) {
     std::printf("%-9s", "overlap");
     for (const int w : {0, 1, 3}) std::printf("  w=%d prec   TP  det", w);
     std::printf("\n");
+    for (const int w : {0, 1, 3}) {
+      const std::string label = "window " + std::to_string(w);
+      fig_prec.series.push_back({label, {}, {}, {}, false, true});
+      fig_tp.series.push_back({label, {}, {}, {}, false, true});
+    }
     for (int ti = 0; ti <= 9; ++ti) {
       const double thr = 0.5 + 0.05 * ti;
       std::printf("%-9.2f", thr);
-      for (const int w : {0, 1, 3}) {
+      for (std::size_t wi = 0; wi < 3; ++wi) {
+        const int w = std::array{0, 1, 3}[wi];
         int det = 0, tp = 0;
         for (const auto& r : rows) {
           if (r.window != w || !r.valid || r.overlap < thr - 1e-9) continue;
@@ -291,6 +302,12 @@ int main(int argc, char** argv) {
         }
         const double prec = det ? static_cast<double>(tp) / det : 0.0;
         std::printf("  %8.3f %4d %4d", prec, tp, det);
+        if (det > 0) {  // no detection: no precision point
+          fig_prec.series[wi].x.push_back(thr);
+          fig_prec.series[wi].y.push_back(prec);
+        }
+        fig_tp.series[wi].x.push_back(thr);
+        fig_tp.series[wi].y.push_back(tp);
         char line[128];
         std::snprintf(line, sizeof(line), "%d,%.2f,%d,%d,%.4f\n", w, thr, det, tp, prec);
         prec_csv += line;
@@ -320,7 +337,21 @@ int main(int argc, char** argv) {
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/matching.csv", match_csv);
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/registrations.csv", reg_csv);
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/precision.csv", prec_csv);
-    std::printf("CSVs in %s\n", out_dir.c_str());
+    for (auto* panel : {&fig_prec, &fig_tp}) {
+      panel->options.x_label = "overlap threshold";
+      panel->options.x_min = 0.5;
+      panel->options.x_max = 0.97;
+      panel->options.width_px = 700;
+      panel->options.height_px = 480;
+    }
+    fig_prec.options.title = info.name + ": precision vs overlap threshold";
+    fig_prec.options.y_label = "precision";
+    fig_prec.options.y_min = 0.0;
+    fig_prec.options.y_max = 1.3;  // headroom for the legend above precision 1
+    fig_tp.options.title = info.name + ": true positives vs overlap threshold";
+    fig_tp.options.y_label = "true positives";
+    draco::report::RenderLineChartPanels({fig_prec, fig_tp}, out_dir + "/fig3.png");
+    std::printf("CSVs and fig3.png in %s\n", out_dir.c_str());
     return 0;
   } catch (const draco::graph::GraphError& e) {
     std::cerr << e.what() << "\n";

@@ -132,6 +132,24 @@ TEST(Report, LineAndBarCharts) {
   fs::remove_all(dir);
 }
 
+TEST(Report, LineChartPanelsSideBySide) {
+  const fs::path dir = TempDir("panels");
+  ChartPanel left, right;
+  left.series.push_back(Series{"w=0", {0.5, 0.6, 0.7}, {0.8, 0.9, 1.0}, {}, false, true});
+  left.options.title = "precision";
+  right.series.push_back(Series{"w=0", {0.5, 0.6, 0.7}, {40, 20, 5}, {}, false, true});
+  right.options.title = "true positives";
+  right.options.width_px = 600;
+  right.options.height_px = 400;  // shorter: padded to the left panel's height
+  RenderLineChartPanels({left, right}, (dir / "fig3.png").string());
+  const cv::Mat img = cv::imread((dir / "fig3.png").string());
+  EXPECT_EQ(img.cols, left.options.width_px + 600);
+  EXPECT_EQ(img.rows, left.options.height_px);
+  EXPECT_THROW(RenderLineChartPanels({}, (dir / "x.png").string()), std::invalid_argument);
+  EXPECT_EQ(Listing(dir), std::vector<std::string>{"fig3.png"});
+  fs::remove_all(dir);
+}
+
 TEST(Report, SonarFrameDrawsDetections) {
   const fs::path dir = TempDir("sonar");
   draco::msgs::SonarPing ping;

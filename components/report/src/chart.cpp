@@ -110,10 +110,8 @@ void DrawLegend(cv::Mat& img, const Frame& f, const std::vector<LegendEntry>& en
   }
 }
 
-}  // namespace
-
-void RenderLineChart(const std::vector<Series>& series, const ChartOptions& o,
-                     const std::string& png_path) {
+// The line chart as an image (RenderLineChart, RenderLineChartPanels).
+cv::Mat DrawLineChart(const std::vector<Series>& series, const ChartOptions& o) {
   double x0 = std::numeric_limits<double>::infinity(), x1 = -x0;
   double y0 = x0, y1 = -x0;
   for (const auto& s : series) {
@@ -182,7 +180,31 @@ void RenderLineChart(const std::vector<Series>& series, const ChartOptions& o,
   }
   cv::rectangle(img, f.plot, detail::kAxis, 1);
   DrawLegend(img, f, legend);
-  detail::WritePng(img, png_path);
+  return img;
+}
+
+}  // namespace
+
+void RenderLineChart(const std::vector<Series>& series, const ChartOptions& o,
+                     const std::string& png_path) {
+  detail::WritePng(DrawLineChart(series, o), png_path);
+}
+
+void RenderLineChartPanels(const std::vector<ChartPanel>& panels, const std::string& png_path) {
+  if (panels.empty()) throw std::invalid_argument("RenderLineChartPanels: no panel");
+  int height = 0;
+  for (const auto& p : panels) height = std::max(height, p.options.height_px);
+  std::vector<cv::Mat> images;
+  for (const auto& p : panels) {
+    cv::Mat img = DrawLineChart(p.series, p.options);
+    if (img.rows < height) {
+      cv::copyMakeBorder(img, img, 0, height - img.rows, 0, 0, cv::BORDER_CONSTANT, detail::kWhite);
+    }
+    images.push_back(img);
+  }
+  cv::Mat out;
+  cv::hconcat(images, out);
+  detail::WritePng(out, png_path);
 }
 
 void RenderBarChart(const std::vector<std::string>& categories,

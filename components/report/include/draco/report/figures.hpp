@@ -122,6 +122,15 @@ struct ChartOptions {
 void RenderLineChart(const std::vector<Series>& series, const ChartOptions& options,
                      const std::string& png_path);
 
+// Several line charts side by side in one PNG (e.g. the paper's Fig. 3: precision and true
+// positives against the overlap threshold); each panel has its own size, shorter panels are
+// padded at the bottom.
+struct ChartPanel {
+  std::vector<Series> series;
+  ChartOptions options;
+};
+void RenderLineChartPanels(const std::vector<ChartPanel>& panels, const std::string& png_path);
+
 // Grouped bar chart: one group per category, one bar per series in the group
 // (e.g. categories = robots, series = {dead reckoning, local SLAM}).
 struct BarSeries {
