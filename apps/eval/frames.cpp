@@ -24,24 +24,6 @@ cfar::FeatureOptions LocalSlamFeatureOptions() {
   return o;
 }
 
-// Mission time of the robot's last AHRS sample (the length of its replay), 0 when unknown.
-double MissionLengthS(const std::string& mission, const std::string& robot) {
-  std::ifstream f(fs::path(mission) / robot / "ahrs.csv", std::ios::binary | std::ios::ate);
-  if (!f) return 0.0;
-  const std::streamoff size = f.tellg();
-  const std::streamoff start = std::max<std::streamoff>(0, size - 4096);
-  f.seekg(start);
-  std::string tail(static_cast<std::size_t>(size - start), '\0');
-  f.read(tail.data(), static_cast<std::streamsize>(tail.size()));
-  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
-  const auto nl = tail.rfind('\n');
-  try {
-    return std::stod(tail.substr(nl == std::string::npos ? 0 : nl + 1));
-  } catch (const std::exception&) {
-    return 0.0;
-  }
-}
-
 // Progress of a pass over a robot's pings, at most every 5 s of mission time.
 class PingProgress {
  public:
@@ -68,7 +50,7 @@ std::vector<std::uint32_t> PickPings(const std::string& mission, const std::stri
   auto reader = recording::RobotReader::Open(mission, robot, ro);
   std::vector<std::pair<double, std::uint32_t>> scored;
   PingProgress progress("draco-eval: scoring " + robot + "'s pings",
-                        MissionLengthS(mission, robot));
+                        draco::recording::RobotReplayLengthS(mission, robot));
   while (auto rec = reader.Next()) {
     if (const auto* ping = std::get_if<msgs::SonarPing>(&*rec)) {
       scored.push_back({report::PingStructureScore(*ping), ping->ping_id});
@@ -111,7 +93,7 @@ std::vector<report::ReportFigure> RenderFrames(const std::string& run_dir,
     cfar::FeatureExtractor extractor(LocalSlamFeatureOptions());
     std::size_t next = 0;
     PingProgress progress("draco-eval: drawing " + r.name + "'s frames",
-                          MissionLengthS(options.mission_dir, r.name));
+                          draco::recording::RobotReplayLengthS(options.mission_dir, r.name));
     while (next < ids.size()) {
       auto rec = reader.Next();
       if (!rec) break;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
@@ -42,23 +41,6 @@ void CollectComponents(const fs::path& file, std::vector<YAML::Node>* out, int d
   if (const auto comps = root["components"]) {
     if (!comps.IsSequence()) throw std::runtime_error(file.string() + ": components: a list");
     for (const auto& c : comps) out->push_back(c);
-  }
-}
-
-double LastTimeS(const std::string& path) {
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) return 0.0;
-  const std::streamoff size = f.tellg();
-  const std::streamoff start = std::max<std::streamoff>(0, size - 4096);
-  f.seekg(start);
-  std::string tail(static_cast<std::size_t>(size - start), '\0');
-  f.read(tail.data(), static_cast<std::streamsize>(tail.size()));
-  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
-  const auto nl = tail.rfind('\n');
-  try {
-    return std::stod(tail.substr(nl == std::string::npos ? 0 : nl + 1));
-  } catch (const std::exception&) {
-    return 0.0;
   }
 }
 
@@ -129,7 +111,7 @@ std::string ComposeTeamGraph(const std::string& robot_graph_path,
 double MissionLengthS(const std::string& mission_dir, const std::vector<std::string>& team) {
   double t = 0.0;
   for (const auto& r : team) {
-    t = std::max(t, LastTimeS((fs::path(mission_dir) / r / "ahrs.csv").string()));
+    t = std::max(t, recording::RobotReplayLengthS(mission_dir, r));
   }
   return t;
 }

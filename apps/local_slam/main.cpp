@@ -11,7 +11,6 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 
 #include "draco/eval/trajectory.hpp"
@@ -23,24 +22,6 @@
 namespace {
 std::atomic<bool> g_stop{false};
 
-// Mission time of the last line of a CSV stream whose first column is the time (0 if unknown):
-// the length of a robot's replay, for the progress line.
-double LastTimeS(const std::string& path) {
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) return 0.0;
-  const std::streamoff size = f.tellg();
-  const std::streamoff start = std::max<std::streamoff>(0, size - 4096);
-  f.seekg(start);
-  std::string tail(static_cast<std::size_t>(size - start), '\0');
-  f.read(tail.data(), static_cast<std::streamsize>(tail.size()));
-  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
-  const auto nl = tail.rfind('\n');
-  try {
-    return std::stod(tail.substr(nl == std::string::npos ? 0 : nl + 1));
-  } catch (const std::exception&) {
-    return 0.0;
-  }
-}
 extern "C" void OnSignal(int) { g_stop = true; }
 }  // namespace
 
@@ -92,8 +73,7 @@ int main(int argc, char** argv) {
       run.output_dir = out_dir;
       run.stop_requested = &g_stop;
       draco::graph::ProgressPrinter progress(
-          "draco-local-slam: " + name,
-          LastTimeS((std::filesystem::path(mission_dir) / name / "ahrs.csv").string()));
+          "draco-local-slam: " + name, draco::recording::RobotReplayLengthS(mission_dir, name));
       run.progress = [&](draco::graph::Time t) { progress.Update(t); };
       const auto result = draco::graph::RunDeterministic(*graph, run);
       progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));

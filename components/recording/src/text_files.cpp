@@ -1,4 +1,5 @@
 // Navigation CSV files and the TUM ground-truth file: line-by-line readers.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -245,3 +246,24 @@ std::unique_ptr<Stream> OpenGroundTruthStream(const fs::path& path) {
 }
 
 }  // namespace draco::recording::internal
+
+namespace draco::recording {
+
+double RobotReplayLengthS(const std::filesystem::path& mission_dir, const std::string& robot) {
+  std::ifstream f(mission_dir / robot / "ahrs.csv", std::ios::binary | std::ios::ate);
+  if (!f) return 0.0;
+  const std::streamoff size = f.tellg();
+  const std::streamoff start = std::max<std::streamoff>(0, size - 4096);
+  f.seekg(start);
+  std::string tail(static_cast<std::size_t>(size - start), '\0');
+  f.read(tail.data(), static_cast<std::streamsize>(tail.size()));
+  while (!tail.empty() && (tail.back() == '\n' || tail.back() == '\r')) tail.pop_back();
+  const auto nl = tail.rfind('\n');
+  const std::string last = tail.substr(nl == std::string::npos ? 0 : nl + 1);
+  double t = 0.0;
+  const auto [ptr, ec] = std::from_chars(last.data(), last.data() + last.size(), t);
+  (void)ptr;
+  return ec == std::errc() && std::isfinite(t) ? t : 0.0;
+}
+
+}  // namespace draco::recording

@@ -214,4 +214,9 @@ class RobotReader {
   std::unique_ptr<Impl> impl_;
 };
 
+// Mission time of a robot's replay: the time of the last AHRS sample (the last line of
+// <mission>/<robot>/ahrs.csv; read from the file's end, cheap), 0 when unknown. For progress
+// lines and for running a team to its longest replay.
+double RobotReplayLengthS(const std::filesystem::path& mission_dir, const std::string& robot);
+
 }  // namespace draco::recording
