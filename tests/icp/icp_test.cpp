@@ -245,6 +245,63 @@ TEST(SequentialScanMatcher, FallsBackToDeadReckoning) {
   EXPECT_FALSE(gated.AddKeyframe(d.keyframes[1])->scan_matched);
 }
 
+TEST(SequentialScanMatcher, DegenerateScanIsElongatedAndGated) {
+  // Both keyframes see one straight wall only: the match fixes the across-wall offset and
+  // the heading but not the position along the wall.
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  msgs::Keyframe k0, k1;
+  k0.index = 0;
+  k1.index = 1;
+  k1.time_s = 5.0;
+  k1.T_prevkf_kf = {1.0, 0.0, 0.0};
+  k1.T_odom_body = k1.T_prevkf_kf;
+  k1.covariance_prevkf_kf = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+  for (int i = 0; i < 200; ++i) {
+    const double x = 0.1 * i;
+    k0.points_body.push_back({x, 3.0 + noise(rng)});
+    k1.points_body.push_back({x - 1.0, 3.0 + noise(rng)});
+  }
+  SequentialScanMatcher plain;
+  plain.AddKeyframe(k0);
+  const auto f = plain.AddKeyframe(k1);
+  ASSERT_TRUE(f && f->scan_matched);
+  EXPECT_GT(f->covariance[0], 100.0 * f->covariance[4]);  // along the wall
+  EXPECT_GT(CovarianceAnisotropy(f->covariance), 10.0);
+  // Scaled covariance, same shape.
+  SequentialScanMatcher scaled(SequentialOptions{.covariance_scale = 4.0});
+  scaled.AddKeyframe(k0);
+  const auto g = scaled.AddKeyframe(k1);
+  ASSERT_TRUE(g && g->scan_matched);
+  EXPECT_NEAR(g->covariance[4], 4.0 * f->covariance[4], 1e-12);
+  // The degeneracy gate falls back to dead reckoning.
+  SequentialScanMatcher gated(SequentialOptions{.max_anisotropy = 5.0});
+  gated.AddKeyframe(k0);
+  const auto h = gated.AddKeyframe(k1);
+  ASSERT_TRUE(h);
+  EXPECT_FALSE(h->scan_matched);
+  EXPECT_DOUBLE_EQ(h->covariance[0], 0.01);
+  // An isotropic covariance has anisotropy 1; a rank-deficient one is infinite.
+  EXPECT_DOUBLE_EQ(CovarianceAnisotropy({0.04, 0, 0, 0, 0.04, 0, 0, 0, 1e-4}), 1.0);
+  EXPECT_NEAR(CovarianceAnisotropy({0.04, 0, 0, 0, 0.01, 0, 0, 0, 1e-4}), 2.0, 1e-12);
+  EXPECT_TRUE(std::isinf(CovarianceAnisotropy({1.0, 1.0, 0, 1.0, 1.0, 0, 0, 0, 1e-4})));
+}
+
+TEST(SequentialScanMatcher, DeadReckoningConsistencyGate) {
+  // Dead reckoning biased 0.3 m and 0.035 rad per keyframe with sigmas 0.2 m and 0.02 rad:
+  // squared Mahalanobis distance about 0.3^2 / 0.04 + 0.035^2 / 4e-4 = 5.3.
+  const Drive d = MakeDrive(300, 0.3, 0.035);
+  SequentialScanMatcher loose(SequentialOptions{.max_dr_mahalanobis2 = 11.34});
+  SequentialScanMatcher tight(SequentialOptions{.max_dr_mahalanobis2 = 3.0});
+  loose.AddKeyframe(d.keyframes[0]);
+  tight.AddKeyframe(d.keyframes[0]);
+  EXPECT_TRUE(loose.AddKeyframe(d.keyframes[1])->scan_matched);
+  EXPECT_FALSE(tight.AddKeyframe(d.keyframes[1])->scan_matched);
+  const msgs::Covariance3 c = {0.04, 0, 0, 0, 0.04, 0, 0, 0, 4e-4};
+  const msgs::Covariance3 zero{};
+  EXPECT_NEAR(Mahalanobis2({0, 0, 0}, c, {0.3, 0.0, 0.035}, zero), 2.25 + 3.0625, 1e-9);
+}
+
 TEST(IcpOdometryComponent, EmitsOneFactorPerKeyframeAfterTheFirst) {
   const Drive d = MakeDrive(300, 0.3, 0.035);
   graph::testing::Harness h("slam.IcpOdometry", "num_previous_keyframes: 3\n");

@@ -31,6 +31,17 @@ class IcpOdometryComponent final : public graph::Component {
                {"gate around the dead-reckoning seed", "rad", 0.0, 3.2, {}});
     spec.Param("min_overlap_ratio", &o_.min_overlap_ratio,
                {"reject matches with less overlap", "", 0.0, 1.0, {}});
+    spec.Param("covariance_scale", &o_.covariance_scale,
+               {"ICP covariance multiplied by this", "", 1e-6, {}, {}});
+    spec.Param(
+        "max_anisotropy", &o_.max_anisotropy,
+        {"fall back when the ICP xy covariance is more elongated (0: off)", "", 0.0, {}, {}});
+    spec.Param("max_dr_mahalanobis2", &o_.max_dr_mahalanobis2,
+               {"fall back when ICP and dead reckoning disagree beyond this chi2 (0: off)",
+                "",
+                0.0,
+                {},
+                {}});
     spec.Param("metric", &metric_,
                {"ICP error metric", "", {}, {}, {"point_to_point", "point_to_line"}});
     spec.Param("max_correspondence_distance_m", &o_.icp.max_correspondence_distance_m,

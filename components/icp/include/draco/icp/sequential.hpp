@@ -19,8 +19,26 @@ struct SequentialOptions {
   double max_translation_from_seed_m = 3.0;
   double max_rotation_from_seed_rad = 30.0 * 3.14159265358979323846 / 180.0;
   double min_overlap_ratio = 0.0;  // the reference does not gate on overlap here
+  // The ICP covariance of an accepted match is multiplied by this (trimming and correlated
+  // residuals make it optimistic: docs/local-slam.md measures it against ground truth).
+  double covariance_scale = 1.0;
+  // Degeneracy gate (0: off): fall back to dead reckoning when the xy block of the ICP
+  // covariance is more elongated than this (sqrt of its eigenvalue ratio): points along one
+  // line or a small blob constrain one direction only.
+  double max_anisotropy = 0.0;
+  // Consistency gate with dead reckoning (0: off): fall back when the squared Mahalanobis
+  // distance between the scan match and the dead-reckoning increment, under the sum of both
+  // covariances (after covariance_scale), exceeds this.
+  double max_dr_mahalanobis2 = 0.0;
   IcpOptions icp;
 };
+
+// sqrt(largest / smallest eigenvalue) of the xy block of a covariance (infinity when the
+// smallest is not positive).
+double CovarianceAnisotropy(const msgs::Covariance3& covariance);
+// Squared Mahalanobis distance of `b` from `a` (error Between(a, b)) under cov_a + cov_b.
+double Mahalanobis2(const msgs::Pose2& a, const msgs::Covariance3& cov_a, const msgs::Pose2& b,
+                    const msgs::Covariance3& cov_b);
 
 class SequentialScanMatcher {
  public:
