@@ -123,6 +123,7 @@ void DeterministicEngine::Call(std::uint32_t node, Reason reason, const std::str
   Node& n = *graph_.nodes[node];
   node_now_[node] = now_;
   Context ctx(n.id, &node_now_[node], &output_dir_);
+  ctx.SetStopFlag(options_.stop_requested);
   ctx.SetEvent(reason, timer);
   const std::string fatal =
       internal::InvokeComponent(n, ctx, reason, recorder_, options_.log_errors);

@@ -303,6 +303,7 @@ class ThreadedEngine {
       st.now = reason == Reason::kTimer ? Time{clock_ns_.load()} : st.latest;
     }
     Context ctx(n.id, &st.now, &output_dir_);
+    ctx.SetStopFlag(options_.stop_requested);
     ctx.SetEvent(reason, timer);
     const std::string fatal =
         internal::InvokeComponent(n, ctx, reason, recorder_, options_.log_errors);

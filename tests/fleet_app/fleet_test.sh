@@ -5,7 +5,8 @@
 #    robot heard every teammate, nothing was rejected.
 # 2. Kill bravo's daemon mid-mission (SIGKILL) and restart it: alpha and charlie keep running,
 #    notice the restart and exchange with the new bravo again.
-# 3. A daemon with a robot name the mission lacks exits non-zero with a clear message.
+# 3. SIGTERM stops a daemon cleanly, outputs flushed.
+# 4. A daemon with a robot name the mission lacks exits non-zero with a clear message.
 set -u
 sim=$1
 fleet=$2
@@ -63,6 +64,21 @@ s = json.load(open(sys.argv[1]))
 for t in s["teammates"]:
     assert t["frames_received"] > 0, t
 PY
+
+# 3. SIGTERM: a lone daemon (its teammates never come, so it waits for them) stops within
+#    seconds, exits 0 and leaves its outputs whole.
+"$robot" --mission "$work/m" --robot charlie --out "$work/term" --domain "$domain" --quiet \
+  >"$work/term.log" 2>&1 &
+pid=$!
+sleep 1.5
+kill -TERM $pid
+for _ in $(seq 1 50); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
+kill -0 $pid 2>/dev/null && { kill -KILL $pid; fail "daemon still running 5 s after SIGTERM"; }
+wait $pid || { cat "$work/term.log"; fail "SIGTERM: non-zero exit"; }
+for f in charlie.link_stats.json charlie.trajectory.tum charlie.runtime_stats.json; do
+  [ -f "$work/term/$f" ] || fail "SIGTERM: $f not written"
+done
+ls "$work/term" | grep -q partial && fail "SIGTERM: a partial file was left"
 
 out=$("$robot" --mission "$work/m" --robot zulu --out "$work/z" 2>&1) && fail "unknown robot accepted"
 echo "$out" | grep -q "has no robot 'zulu'" || fail "unclear message: $out"

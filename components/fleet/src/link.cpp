@@ -253,7 +253,7 @@ bool LinkEndpoint::InStep(const TeammateLinkState& t, double now_s) const {
          t.clock_s > t.timeout_clock_s;
 }
 
-void LinkEndpoint::WaitForTeammates(double now_s) {
+void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& cancelled) {
   const auto start = std::chrono::steady_clock::now();
   auto last_clock = start;
   const double need = now_s - 1.5 * options_.tick_s;
@@ -268,7 +268,7 @@ void LinkEndpoint::WaitForTeammates(double now_s) {
         ready = false;
       }
     }
-    if (ready) break;
+    if (ready || (cancelled && cancelled())) break;
     const auto now = std::chrono::steady_clock::now();
     const double waited = std::chrono::duration<double>(now - start).count();
     const double limit = started_ ? options_.lockstep_timeout_s : options_.startup_timeout_s;
@@ -374,7 +374,8 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
   reject();  // unknown kind
 }
 
-msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* outgoing) {
+msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* outgoing,
+                                       const std::function<bool()>& cancelled) {
   if (outgoing != nullptr) QueueOutgoing(*outgoing, now_s);
   if (now_s >= next_heartbeat_s_) {
     next_heartbeat_s_ = now_s + options_.heartbeat_period_s;
@@ -401,7 +402,7 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
   }
   if (options_.lockstep) SendClock(now_s, false);
   ReceiveAll(now_s);
-  if (options_.lockstep) WaitForTeammates(now_s);
+  if (options_.lockstep) WaitForTeammates(now_s, cancelled);
 
   msgs::FleetIncoming in;
   in.time_s = now_s;

@@ -112,7 +112,7 @@ class LinkComponent final : public graph::Component {
     }
     const double now_s = ctx.Now().Seconds();
     last_s_ = now_s;
-    auto in = link_->Tick(now_s, any ? &merged : nullptr);
+    auto in = link_->Tick(now_s, any ? &merged : nullptr, [&ctx] { return ctx.StopRequested(); });
     if (!in.empty()) incoming_.PublishAt(ctx.Now(), std::move(in));
     return Status::Ok();
   }

@@ -5,6 +5,7 @@
 // the Context (virtual in replay).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -118,6 +119,10 @@ class Context {
   const std::string& timer() const { return timer_; }
   // Folder for this run's files ("" when the run writes nothing).
   const std::string& output_dir() const { return *output_dir_; }
+  // True once the run was asked to stop (SIGINT/SIGTERM): a component that waits on
+  // something outside the graph (a teammate, a device) should give up waiting.
+  bool StopRequested() const { return stop_ != nullptr && stop_->load(); }
+  void SetStopFlag(const std::atomic<bool>* stop) { stop_ = stop; }
 
   void Log(const std::string& message) const;
 
@@ -131,6 +136,7 @@ class Context {
   std::string id_;
   const Time* now_;
   const std::string* output_dir_;
+  const std::atomic<bool>* stop_ = nullptr;
   Reason reason_ = Reason::kStart;
   std::string timer_;
 };

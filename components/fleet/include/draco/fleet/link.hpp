@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -91,7 +92,9 @@ class LinkEndpoint {
 
   // One tick at mission time now_s: queue `outgoing` (may be null), transmit, receive,
   // deliver what is due. Never throws on what teammates sent.
-  msgs::FleetIncoming Tick(double now_s, const msgs::FleetOutgoing* outgoing);
+  // `cancelled` (may be empty) is polled while lock-step waits: true ends the wait (SIGTERM).
+  msgs::FleetIncoming Tick(double now_s, const msgs::FleetOutgoing* outgoing,
+                           const std::function<bool()>& cancelled = {});
   // Last words: a goodbye clock frame (teammates stop waiting for this robot).
   void Close(double now_s);
 
@@ -109,7 +112,7 @@ class LinkEndpoint {
   void QueueOutgoing(const msgs::FleetOutgoing& out, double now_s);
   void SendClock(double now_s, bool bye);
   void ReceiveAll(double now_s);
-  void WaitForTeammates(double now_s);
+  void WaitForTeammates(double now_s, const std::function<bool()>& cancelled);
   bool InStep(const TeammateLinkState& t, double now_s) const;
   void NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation);
   void Deliver(const middleware::Frame& frame, double now_s, msgs::FleetIncoming* in);
