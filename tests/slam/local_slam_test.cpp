@@ -7,7 +7,11 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <random>
+
+#include <unistd.h>
 
 #include "draco/eval/trajectory.hpp"
 #include "draco/graph/testing/harness.hpp"
@@ -272,6 +276,36 @@ TEST(LocalSlamComponent, WaitsForFactorsAndPublishesTrajectories) {
   EXPECT_EQ(out.back()->keyframes.size(), 5u);
   // The first output covers keyframe 0 only: keyframe 1 waited for its factor.
   EXPECT_EQ(out.front()->keyframes.size(), 1u);
+}
+
+TEST(LocalSlamComponent, WritesItsOutputsOnStop) {
+  std::mt19937 rng(6);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("draco_slam_outputs_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  graph::RunOptions run;
+  run.output_dir = dir.string();
+  {
+    graph::testing::Harness h("slam.LocalSlam", "{loop_closure: false, prefix: r.}", run);
+    for (int i = 0; i < 4; ++i) h.Feed("keyframe", graph::Seconds(i), mission.keyframes[i]);
+    h.RunUntilIdle();
+    h.Stop();
+  }
+  for (const char* name : {"trajectory.tum", "dead_reckoning.tum", "pose_graph.g2o",
+                           "intra_loops.csv", "map.ply", "map.pcd"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / (std::string("r.") + name))) << name;
+  }
+  std::ifstream pcd(dir / "r.map.pcd");
+  std::string line, points;
+  while (std::getline(pcd, line)) {
+    if (line.rfind("POINTS ", 0) == 0) points = line.substr(7);
+  }
+  std::size_t expected = 0;
+  for (int i = 0; i < 4; ++i) expected += mission.keyframes[i].points_body.size();
+  EXPECT_EQ(points, std::to_string(expected));
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -173,7 +173,8 @@ class LocalSlamComponent final : public graph::Component {
     for (const auto& [name, text] :
          {std::pair<std::string, std::string>{"pose_graph.g2o", slam_.ToG2oText()},
           {"intra_loops.csv", loops},
-          {"map.ply", ply}}) {
+          {"map.ply", ply},
+          {"map.pcd", pcd}}) {
       if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, name), text)) {
         return Status::Fatal("cannot write " + OutPath(ctx, prefix_, name));
       }
