@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   draco::objects::MatcherOptions matcher;
   std::string affinity;  // empty: the default
   double over_time_s = 0.0;
+  fe::OverTimeOptions over_time;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/frontend-<mission>)");
   app.add_option("--graph", graph_path, "local-SLAM graph YAML");
@@ -103,6 +104,20 @@ int main(int argc, char** argv) {
   app.add_option("--ransac-m", matcher.ransac_threshold_m, "RANSAC threshold m");
   app.add_option("--over-time", over_time_s,
                  "also match the maps of both robots at the same time every S seconds");
+  app.add_option("--miss-weight", matcher.miss_weight,
+                 "negative evidence: RANSAC score = inliers - W x objects placed on observed empty "
+                 "space (0 off)");
+  app.add_option("--miss-distance", matcher.miss_distance_m, "negative evidence: miss distance m");
+  app.add_option("--coverage-range", over_time.coverage.range_m,
+                 "negative evidence: observed range from a keyframe m");
+  app.add_option("--ambiguity", matcher.max_ambiguity_ratio,
+                 "no match when a distinct runner-up scores >= this fraction of the best (0 off)");
+  app.add_option("--distinct-m", matcher.distinct_m, "ambiguity: distinct hypotheses m apart");
+  app.add_flag("--track", over_time.track,
+               "--over-time: accept a transform only after it won repeatedly (MatchTracker)");
+  app.add_option("--track-votes", over_time.tracker.min_votes, "tracker: wins needed");
+  app.add_option("--track-dominance", over_time.tracker.dominance,
+                 "tracker: votes over every other track's");
   CLI11_PARSE(app, argc, argv);
   if (affinity == "paper") matcher.affinity = draco::objects::AffinityForm::kPaper;
   if (affinity == "relative") matcher.affinity = draco::objects::AffinityForm::kRelative;
@@ -174,6 +189,7 @@ int main(int argc, char** argv) {
         po.registration = ro;
         po.oracle = oracle;
         po.matcher = matcher;
+        po.coverage = over_time.coverage;
         po.tp_m = tp_m;
         po.tp_deg = tp_deg;
         const auto pr = fe::MatchAndRegister(A, B, po);
@@ -212,17 +228,24 @@ int main(int argc, char** argv) {
           "own,teammate,time_s,own_objects,teammate_objects,shared_objects,status,inliers,err_m,"
           "err_deg,correct\n";
       int pairs_right = 0, pairs_wrong = 0, answers = 0, answers_right = 0;
+      int steps = 0, eligible = 0, eligible_right = 0, eligible_wrong = 0;
       std::printf("\ntime-consistent matching every %.0f s (own <- teammate):\n", over_time_s);
       for (std::size_t ia = 0; ia < robots.size(); ++ia) {
         for (std::size_t ib = 0; ib < robots.size(); ++ib) {
           if (ia == ib) continue;
           const auto series =
-              fe::MatchOverTime(robots[ia], robots[ib], mapper, matcher, over_time_s);
+              fe::MatchOverTime(robots[ia], robots[ib], mapper, matcher, over_time_s, over_time);
           int matched = 0, right = 0, max_shared = 0;
           double first_right = -1;
           for (const auto& m : series) {
             matched += m.matched;
             right += m.correct;
+            ++steps;
+            if (m.shared >= 5) {
+              ++eligible;
+              eligible_right += m.correct;
+              eligible_wrong += m.matched && !m.correct;
+            }
             max_shared = std::max(max_shared, m.shared);
             if (m.correct && first_right < 0) first_right = m.time_s;
             char line[256];
@@ -248,6 +271,11 @@ int main(int argc, char** argv) {
           "time-consistent: %d of %zu pairs matched right at least once, %d pairs with a "
           "wrong match; answers %d right of %d matched\n",
           pairs_right, robots.size() * (robots.size() - 1), pairs_wrong, answers_right, answers);
+      std::printf(
+          "time-consistent, steps sharing >= 5 true objects: %d of %d; right %d, wrong %d, none "
+          "%d\n",
+          eligible, steps, eligible_right, eligible_wrong,
+          eligible - eligible_right - eligible_wrong);
       draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/matching_over_time.csv", ot_csv);
     }
 

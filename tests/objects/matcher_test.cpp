@@ -157,7 +157,11 @@ TEST(Matcher, RepeatedStructureIsAmbiguousAlongTheRow) {
   const msgs::Pose2 T_w_a{-5.0, 3.0, 0.3}, T_w_b{40.0, -2.0, -1.1};
   const auto a = View(world, {0, 1, 2, 3, 4, 5, 6, 7, 8}, T_w_a, 0, wo, &rng);
   const auto b = View(world, {3, 4, 5, 6, 7, 8, 9, 10, 11}, T_w_b, 0, wo, &rng);
-  const auto m = MatchObjectMaps(a, b);
+  // The ambiguity test refuses: a distinct shift scores as well as the winner.
+  const auto refused = MatchObjectMaps(a, b, {.max_ambiguity_ratio = 0.6});
+  EXPECT_EQ(refused.status, MatchStatus::kAmbiguous);
+  EXPECT_GE(refused.ambiguity, 0.6);
+  const auto m = MatchObjectMaps(a, b);  // the defaults: no ambiguity test
   std::printf("repeated row: %s, %d candidates, %d entries, %d assignments, %d ransac inliers\n",
               msgs::MatchStatusName(m.status), m.num_candidates, m.num_affinity_entries,
               m.num_assignments, m.num_ransac_inliers);
@@ -170,6 +174,126 @@ TEST(Matcher, RepeatedStructureIsAmbiguousAlongTheRow) {
   }
   std::printf("repeated row: %d inliers, %s transform\n", m.num_inliers,
               Close(m.T_a_b, truth, 2.0, 10.0) ? "the true" : "a shifted (ambiguous)");
+}
+
+// Negative evidence. A row of 9 identical piles 10 m apart along world x (y = 0), ending at
+// pile 8; both robots look at it sideways from y = -10 (sonar heading +y, 15 m range, 45 deg
+// half aperture: about +-10 m of the row line per pose). Robot a passes x = 0..80 and sees
+// piles 0..8; robot b passes x = 32..88, sees piles 3..8 and the empty water beyond pile 8 (up
+// to x = 98). Without coverage the six b piles fit a's row at 0, -10, -20 and -30 m equally
+// well; with it, a shifted transform puts a's pile 8 (or more) onto water b saw empty.
+struct RowScene {
+  msgs::ObjectMap a, b;
+  Coverage ca, cb;
+  msgs::Pose2 truth;
+};
+RowScene MakeRow(std::uint64_t seed) {
+  std::vector<msgs::Object> world;
+  for (int i = 0; i < 9; ++i) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(i);
+    o.center = {10.0 * i, 0.0};
+    o.length_m = 1.2;
+    o.breadth_m = 0.6;
+    world.push_back(o);
+  }
+  std::mt19937_64 rng(seed);
+  const WorldOptions wo{.center_noise_m = 0.1, .size_noise_m = 0.05};
+  const msgs::Pose2 T_w_a{-5.0, 3.0, 0.3}, T_w_b{40.0, -2.0, -1.1};
+  RowScene s;
+  s.a = View(world, {0, 1, 2, 3, 4, 5, 6, 7, 8}, T_w_a, 0, wo, &rng);
+  s.b = View(world, {3, 4, 5, 6, 7, 8}, T_w_b, 0, wo, &rng);
+  const CoverageOptions co{.range_m = 15.0, .half_aperture_rad = 0.7854, .cell_m = 0.5};
+  std::vector<msgs::Pose2> pa, pb;  // keyframe poses in each robot's map frame
+  for (double x = 0.0; x <= 80.0; x += 4.0)
+    pa.push_back(Compose(Inverse(T_w_a), {x, -10.0, 1.5708}));
+  for (double x = 32.0; x <= 88.0; x += 4.0)
+    pb.push_back(Compose(Inverse(T_w_b), {x, -10.0, 1.5708}));
+  s.ca = Coverage(pa, co);
+  s.cb = Coverage(pb, co);
+  s.truth = Compose(Inverse(T_w_a), T_w_b);
+  return s;
+}
+
+TEST(Matcher, CoverageAndMisses) {
+  const RowScene s = MakeRow(1);
+  const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};
+  const auto in_b = [&](double x, double y) {
+    return s.cb.Observed(Transform(Inverse(T_w_b), {x, y}));
+  };
+  EXPECT_TRUE(in_b(90.0, 0.0));     // water beyond the row's end
+  EXPECT_TRUE(in_b(50.0, 0.0));     // pile 5
+  EXPECT_FALSE(in_b(20.0, 0.0));    // pile 2: b never looked there
+  EXPECT_FALSE(in_b(60.0, -15.0));  // behind the sonar
+  EXPECT_FALSE(in_b(60.0, 10.0));   // beyond 15 m
+  EXPECT_TRUE(Coverage().empty());
+  EXPECT_FALSE(Coverage().Observed({0.0, 0.0}));
+  // At the truth no object of either map lands on the other's observed empty water.
+  EXPECT_EQ(CountMisses(s.b, s.a, s.truth, s.ca, 3.0), 0);
+  EXPECT_EQ(CountMisses(s.a, s.b, Inverse(s.truth), s.cb, 3.0), 0);
+  // Shifted by one spacing (b's piles one pile towards a's start): a's pile 8 lands at x = 90
+  // in b's view, where b saw nothing.
+  const msgs::Pose2 T_shifted =
+      Compose(Inverse(msgs::Pose2{-5.0, 3.0, 0.3}), Compose({-10.0, 0.0, 0.0}, T_w_b));
+  EXPECT_EQ(CountMisses(s.b, s.a, T_shifted, s.ca, 3.0), 0);
+  EXPECT_EQ(CountMisses(s.a, s.b, Inverse(T_shifted), s.cb, 3.0), 1);
+}
+
+TEST(Matcher, NegativeEvidenceRejectsRowShiftedByOneSpacing) {
+  int wrong_without = 0, shifted_without = 0, right_with = 0, wrong_with = 0, shifted_with = 0,
+      wrong_both = 0;
+  const auto shifted = [](const msgs::ObjectMatch& m, const msgs::Pose2& truth) {
+    // Wrong but not turned: the row slid along itself.
+    const msgs::Pose2 d = Compose(Inverse(truth), m.T_a_b);
+    return m.status == MatchStatus::kMatched && !Close(m.T_a_b, truth, 2.0, 10.0) &&
+           std::abs(d.yaw_rad) < 1.5;
+  };
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const RowScene s = MakeRow(seed);
+    const auto m0 = MatchObjectMaps(s.a, s.b);  // defaults: no negative evidence
+    wrong_without += m0.status == MatchStatus::kMatched && !Close(m0.T_a_b, s.truth, 2.0, 10.0);
+    shifted_without += shifted(m0, s.truth);
+    const auto m1 = MatchObjectMaps(s.a, s.b, {.miss_weight = 0.5}, &s.ca, &s.cb);
+    const bool right = m1.status == MatchStatus::kMatched && Close(m1.T_a_b, s.truth, 2.0, 10.0);
+    right_with += right;
+    wrong_with += m1.status == MatchStatus::kMatched && !right;
+    shifted_with += shifted(m1, s.truth);
+    if (right) {
+      EXPECT_EQ(m1.num_misses, 0);
+    }
+    const auto m2 =
+        MatchObjectMaps(s.a, s.b, {.miss_weight = 0.5, .max_ambiguity_ratio = 0.6}, &s.ca, &s.cb);
+    wrong_both += m2.status == MatchStatus::kMatched && !Close(m2.T_a_b, s.truth, 2.0, 10.0);
+  }
+  std::printf(
+      "row of identical piles, 20 seeds: without negative evidence %d wrong (%d slid along the "
+      "row); with it %d right, %d wrong (%d slid); with it and the ambiguity test %d wrong\n",
+      wrong_without, shifted_without, right_with, wrong_with, shifted_with, wrong_both);
+  EXPECT_GE(shifted_without, 1);  // the matcher slides the row by a whole spacing
+  EXPECT_EQ(shifted_with, 0);     // negative evidence: never slid along the row
+  EXPECT_LT(wrong_with, wrong_without);
+  // A row of identical piles also maps onto itself turned half a turn, which object absence
+  // cannot always tell; the ambiguity test refuses those.
+  EXPECT_EQ(wrong_both, 0);
+}
+
+TEST(Matcher, TrackerNeedsRepeatedDominantWins) {
+  msgs::ObjectMatch right, wrong, none;
+  right.status = wrong.status = MatchStatus::kMatched;
+  right.T_a_b = {10.0, 5.0, 0.5};
+  wrong.T_a_b = {20.0, 5.0, 0.5};  // one 10 m spacing off
+  none.status = MatchStatus::kTooFewInliers;
+  MatchTracker t;                                                 // 2 votes, dominance 2
+  EXPECT_EQ(t.Update(none).status, MatchStatus::kTooFewInliers);  // passes through
+  EXPECT_EQ(t.Update(wrong).status, MatchStatus::kUnconfirmed);   // 1 vote
+  EXPECT_EQ(t.Update(right).status, MatchStatus::kUnconfirmed);   // 1 vs 1
+  msgs::ObjectMatch right2 = right;
+  right2.T_a_b.x_m += 1.0;  // the same track, refined as the maps grow
+  EXPECT_EQ(t.Update(right2).status, MatchStatus::kMatched);     // 2 vs 1
+  EXPECT_EQ(t.Update(wrong).status, MatchStatus::kUnconfirmed);  // 2 vs 2
+  EXPECT_EQ(t.num_tracks(), 2u);
+  MatchTracker once({.min_votes = 1, .dominance = 1.0});
+  EXPECT_EQ(once.Update(wrong).status, MatchStatus::kMatched);
 }
 
 TEST(Matcher, Deterministic) {

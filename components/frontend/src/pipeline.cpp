@@ -245,9 +245,19 @@ int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,
   return n;
 }
 
+objects::Coverage KeyframeCoverage(const Robot& r, const objects::CoverageOptions& options,
+                                   double until_s) {
+  std::vector<Pose2> poses;
+  for (const auto& k : r.kfs) {
+    if (k.time_s <= until_s) poses.push_back(k.T_map_kf);
+  }
+  return objects::Coverage(poses, options);
+}
+
 std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
                                       const objects::ObjectMapperOptions& mapper,
-                                      const objects::MatcherOptions& matcher, double step_s) {
+                                      const objects::MatcherOptions& matcher, double step_s,
+                                      const OverTimeOptions& over_time) {
   std::vector<TimedMatch> out;
   if (A.kfs.empty() || B.kfs.empty() || step_s <= 0) return out;
   const double t0 = std::max(A.kfs.front().time_s, B.kfs.front().time_s);
@@ -255,6 +265,8 @@ std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
   const Pose2 T_true = reg::Between(A.T_world_map, B.T_world_map);
   // Incremental maps: keyframes are added as time advances.
   objects::ObjectMapper ma(mapper), mb(mapper);
+  objects::MatchTracker tracker(over_time.tracker);
+  const bool negative = matcher.miss_weight > 0.0;
   std::size_t ia = 0, ib = 0;
   for (double t = t0 + step_s; t <= t1 + 1e-9; t += step_s) {
     while (ia < A.kfs.size() && A.kfs[ia].time_s <= t) {
@@ -271,7 +283,14 @@ std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
     m.objects_a = static_cast<int>(a.objects.size());
     m.objects_b = static_cast<int>(b.objects.size());
     m.shared = SharedObjects(A, a, B, b);
-    m.match = objects::MatchObjectMaps(a, b, matcher);
+    if (negative) {
+      const auto ca = KeyframeCoverage(A, over_time.coverage, t);
+      const auto cb = KeyframeCoverage(B, over_time.coverage, t);
+      m.match = objects::MatchObjectMaps(a, b, matcher, &ca, &cb);
+    } else {
+      m.match = objects::MatchObjectMaps(a, b, matcher);
+    }
+    if (over_time.track) m.match = tracker.Update(m.match);
     m.matched = m.match.status == msgs::MatchStatus::kMatched;
     const Pose2 d = reg::Between(T_true, m.match.T_a_b);
     m.err_m = std::hypot(d.x_m, d.y_m);
@@ -298,7 +317,13 @@ PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& o
     }
   }
   out.T_true = reg::Between(A.T_world_map, B.T_world_map);
-  out.match = objects::MatchObjectMaps(A.objects, B.objects, options.matcher);
+  if (options.matcher.miss_weight > 0.0) {
+    const auto ca = KeyframeCoverage(A, options.coverage),
+               cb = KeyframeCoverage(B, options.coverage);
+    out.match = objects::MatchObjectMaps(A.objects, B.objects, options.matcher, &ca, &cb);
+  } else {
+    out.match = objects::MatchObjectMaps(A.objects, B.objects, options.matcher);
+  }
   out.matched = out.match.status == msgs::MatchStatus::kMatched;
   const Pose2 d = reg::Between(out.T_true, out.match.T_a_b);
   out.err_m = std::hypot(d.x_m, d.y_m);

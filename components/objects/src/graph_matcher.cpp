@@ -205,18 +205,90 @@ std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
   return weights;
 }
 
+Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
+  if (poses.empty()) return;
+  cell_m_ = o.cell_m;
+  double x0 = poses[0].x_m, x1 = x0, y0 = poses[0].y_m, y1 = y0;
+  for (const auto& p : poses) {
+    x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
+    y0 = std::min(y0, p.y_m), y1 = std::max(y1, p.y_m);
+  }
+  x0_ = x0 - o.range_m;
+  y0_ = y0 - o.range_m;
+  nx_ = static_cast<int>(std::ceil((x1 - x0 + 2 * o.range_m) / cell_m_)) + 1;
+  ny_ = static_cast<int>(std::ceil((y1 - y0 + 2 * o.range_m) / cell_m_)) + 1;
+  cells_.assign(std::size_t(nx_) * ny_, 0);
+  const int r = static_cast<int>(std::ceil(o.range_m / cell_m_));
+  for (const auto& p : poses) {
+    const int cx = static_cast<int>((p.x_m - x0_) / cell_m_);
+    const int cy = static_cast<int>((p.y_m - y0_) / cell_m_);
+    for (int iy = std::max(0, cy - r); iy <= std::min(ny_ - 1, cy + r); ++iy) {
+      for (int ix = std::max(0, cx - r); ix <= std::min(nx_ - 1, cx + r); ++ix) {
+        std::uint8_t& cell = cells_[std::size_t(iy) * nx_ + ix];
+        if (cell) continue;
+        const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
+        const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
+        if (dx * dx + dy * dy > o.range_m * o.range_m) continue;
+        if (std::abs(NormalizeAngle(std::atan2(dy, dx) - p.yaw_rad)) > o.half_aperture_rad) {
+          continue;
+        }
+        cell = 1;
+      }
+    }
+  }
+}
+
+bool Coverage::Observed(const Point2& p) const {
+  if (cells_.empty()) return false;
+  const double fx = (p.x_m - x0_) / cell_m_, fy = (p.y_m - y0_) / cell_m_;
+  if (fx < 0 || fy < 0 || fx >= nx_ || fy >= ny_) return false;
+  return cells_[std::size_t(fy) * nx_ + std::size_t(fx)] != 0;
+}
+
+double Coverage::ObservedFraction() const {
+  if (cells_.empty()) return 0.0;
+  std::size_t n = 0;
+  for (const auto c : cells_) n += c;
+  return double(n) / double(cells_.size());
+}
+
+int CountMisses(const ObjectMap& from, const ObjectMap& to, const Pose2& T_to_from,
+                const Coverage& to_coverage, double distance_m) {
+  int misses = 0;
+  for (const auto& o : from.objects) {
+    const Point2 q = Transform(T_to_from, o.center);
+    if (!to_coverage.Observed(q)) continue;
+    bool near = false;
+    for (const auto& t : to.objects) {
+      if (Distance(t.center, q) < distance_m) {
+        near = true;
+        break;
+      }
+    }
+    misses += !near;
+  }
+  return misses;
+}
+
 namespace {
+
+Pose2 Inverse(const Pose2& T) {
+  const double c = std::cos(T.yaw_rad), s = std::sin(T.yaw_rad);
+  return {-(c * T.x_m + s * T.y_m), s * T.x_m - c * T.y_m, -T.yaw_rad};
+}
 
 struct Hypothesis {
   Pose2 T;
   int inliers = -1;
+  int misses = 0;
+  double score = -std::numeric_limits<double>::infinity();  // inliers - miss_weight * misses
   double cost = std::numeric_limits<double>::infinity();
 };
 
 // Inliers (residual < threshold) and the truncated squared cost (MSAC) of T.
 Hypothesis Score(const Pose2& T, const std::vector<Point2>& pa, const std::vector<Point2>& pb,
                  double threshold, std::vector<char>* inlier) {
-  Hypothesis h{T, 0, 0.0};
+  Hypothesis h{T, 0, 0, 0.0, 0.0};
   if (inlier) inlier->assign(pa.size(), 0);
   const double c = std::cos(T.yaw_rad), s = std::sin(T.yaw_rad);
   for (std::size_t i = 0; i < pa.size(); ++i) {
@@ -228,17 +300,19 @@ Hypothesis Score(const Pose2& T, const std::vector<Point2>& pa, const std::vecto
     }
     h.cost += std::min(r * r, threshold * threshold);
   }
+  h.score = h.inliers;
   return h;
 }
 
 bool Better(const Hypothesis& x, const Hypothesis& y) {
-  return x.inliers > y.inliers || (x.inliers == y.inliers && x.cost < y.cost);
+  return x.score > y.score || (x.score == y.score && x.cost < y.cost);
 }
 
 }  // namespace
 
 msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
-                                  const MatcherOptions& options) {
+                                  const MatcherOptions& options, const Coverage* coverage_a,
+                                  const Coverage* coverage_b) {
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
@@ -273,14 +347,33 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
     match.status = MatchStatus::kTooFewAssignments;
     return match;
   }
+  // Negative evidence of a transform, both ways.
+  const bool negative = options.miss_weight > 0.0 && (coverage_a || coverage_b);
+  const auto misses = [&](const Pose2& T) {
+    int m = 0;
+    if (coverage_a && !coverage_a->empty()) {
+      m += CountMisses(b, a, T, *coverage_a, options.miss_distance_m);
+    }
+    if (coverage_b && !coverage_b->empty()) {
+      m += CountMisses(a, b, Inverse(T), *coverage_b, options.miss_distance_m);
+    }
+    return m;
+  };
+  const auto charge = [&](Hypothesis* h) {
+    if (!negative) return;
+    h->misses = misses(h->T);
+    h->score = h->inliers - options.miss_weight * h->misses;
+  };
   // 3. RANSAC over pairs of assignments (every pair when there are few).
   const std::size_t n = pa.size();
   const double thr = options.ransac_threshold_m;
   Hypothesis best;
+  const bool ambiguity = options.max_ambiguity_ratio > 0.0;
   auto try_sample = [&](std::size_t s, std::size_t t) {
     const double da = Distance(pa[s], pa[t]), db = Distance(pb[s], pb[t]);
     if (da < 1e-6 || std::abs(da - db) > thr) return;  // a rigid motion keeps distances
-    const Hypothesis h = Score(FitRigid({pa[s], pa[t]}, {pb[s], pb[t]}), pa, pb, thr, nullptr);
+    Hypothesis h = Score(FitRigid({pa[s], pa[t]}, {pb[s], pb[t]}), pa, pb, thr, nullptr);
+    charge(&h);
     if (Better(h, best)) best = h;
   };
   const std::size_t all_pairs = n * (n - 1) / 2;
@@ -305,13 +398,100 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
     for (std::size_t i = 0; i < n; ++i) {
       if (inlier[i]) qa.push_back(pa[i]), qb.push_back(pb[i]);
     }
-    const Hypothesis refit = Score(FitRigid(qa, qb), pa, pb, thr, nullptr);
+    Hypothesis refit = Score(FitRigid(qa, qb), pa, pb, thr, nullptr);
+    charge(&refit);
     if (!Better(best, refit)) best = refit;
   }
   match.num_ransac_inliers = best.inliers;
   if (best.inliers < options.min_inliers) {
     match.status = MatchStatus::kTooFewInliers;
     return match;
+  }
+  // Verification over all objects (negative evidence, ambiguity). RANSAC above only sees the
+  // one-to-one assignment, which along a row of identical piles holds one shift only; here the
+  // hypotheses also come from pairs of each object's top eigenvector candidates, and each is
+  // scored by its support (b objects landing within the threshold of an a object) minus
+  // miss_weight x misses. The best-supported hypothesis replaces RANSAC's when it is distinct
+  // and better; the ambiguity is the runner-up's support beyond a two-point sample over the
+  // winner's.
+  if (negative || ambiguity) {
+    const auto support = [&](const Pose2& T) {
+      int n_in = 0;
+      for (const auto& ob : b.objects) {
+        const Point2 q = Transform(T, ob.center);
+        for (const auto& oa : a.objects) {
+          if (Distance(oa.center, q) < thr) {
+            ++n_in;
+            break;
+          }
+        }
+      }
+      return n_in - (negative ? options.miss_weight * misses(T) : 0.0);
+    };
+    const auto distinct = [&](const Pose2& x, const Pose2& y) {
+      if (std::abs(NormalizeAngle(x.yaw_rad - y.yaw_rad)) > options.distinct_rad) return true;
+      double moved = 0.0;
+      for (const auto& ob : b.objects)
+        moved += Distance(Transform(x, ob.center), Transform(y, ob.center));
+      return moved / double(nb) > options.distinct_m;
+    };
+    // Candidate correspondences: the top verify_candidates b objects of each a object.
+    std::vector<std::pair<Point2, Point2>> corr;
+    std::vector<std::pair<int, int>> corr_ik;
+    for (int i = 0; i < na; ++i) {
+      std::vector<int> ks;
+      for (int k = 0; k < nb; ++k) {
+        if (weights[std::size_t(i) * nb + k] > 0.0) ks.push_back(k);
+      }
+      std::sort(ks.begin(), ks.end(), [&](int x, int y) {
+        return weights[std::size_t(i) * nb + x] > weights[std::size_t(i) * nb + y] ||
+               (weights[std::size_t(i) * nb + x] == weights[std::size_t(i) * nb + y] && x < y);
+      });
+      if (static_cast<int>(ks.size()) > options.verify_candidates)
+        ks.resize(options.verify_candidates);
+      for (const int k : ks) {
+        corr.emplace_back(a.objects[i].center, b.objects[k].center);
+        corr_ik.emplace_back(i, k);
+      }
+    }
+    std::vector<Pose2> hyps{best.T};
+    const auto add = [&](std::size_t u, std::size_t v) {
+      if (corr_ik[u].first == corr_ik[v].first || corr_ik[u].second == corr_ik[v].second) return;
+      const double da = Distance(corr[u].first, corr[v].first);
+      const double db = Distance(corr[u].second, corr[v].second);
+      if (da < 1e-6 || std::abs(da - db) > thr) return;
+      hyps.push_back(FitRigid({corr[u].first, corr[v].first}, {corr[u].second, corr[v].second}));
+    };
+    const std::size_t m = corr.size();
+    if (m * (m - 1) / 2 <= static_cast<std::size_t>(std::max(0, options.verify_iterations))) {
+      for (std::size_t u = 0; u < m; ++u) {
+        for (std::size_t v = u + 1; v < m; ++v) add(u, v);
+      }
+    } else if (m >= 2) {
+      std::mt19937_64 rng(options.seed + 1);
+      for (int it = 0; it < options.verify_iterations; ++it) {
+        const std::size_t u = rng() % m;
+        std::size_t v = rng() % (m - 1);
+        if (v >= u) ++v;
+        add(u, v);
+      }
+    }
+    std::vector<double> score(hyps.size());
+    std::size_t win = 0;
+    for (std::size_t h = 0; h < hyps.size(); ++h) {
+      score[h] = support(hyps[h]);
+      if (score[h] > score[win] && distinct(hyps[h], hyps[0])) win = h;
+    }
+    if (win != 0) best.T = hyps[win];
+    double runner_up = 0.0;
+    for (std::size_t h = 0; h < hyps.size(); ++h) {
+      if (score[h] > runner_up && distinct(hyps[h], hyps[win])) runner_up = score[h];
+    }
+    match.ambiguity = std::max(0.0, runner_up - 2.0) / std::max(1e-9, score[win] - 2.0);
+    if (ambiguity && match.ambiguity >= options.max_ambiguity_ratio) {
+      match.status = MatchStatus::kAmbiguous;
+      return match;
+    }
   }
   // 4. Re-match every object in the aligned frame on centre distance; refit (twice, so the
   // second assignment sees the refined transform).
@@ -351,7 +531,15 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
     if (kept == pairs) break;
     pairs = std::move(kept);
   }
-  // 5. Outcome.
+  // 5. Outcome (negative evidence of the final transform first).
+  if (negative) {
+    match.num_misses = misses(T);
+    if (double(pairs.size()) - options.miss_weight * match.num_misses < options.min_inliers) {
+      match.status = MatchStatus::kContradicted;
+      match.num_inliers = static_cast<int>(pairs.size());
+      return match;
+    }
+  }
   match.status = MatchStatus::kMatched;
   match.T_a_b = T;
   match.T_a_b.yaw_rad = NormalizeAngle(T.yaw_rad);
@@ -365,6 +553,35 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   match.rmse_m = std::sqrt(sum2 / double(pairs.size()));
   match.confidence = double(match.num_inliers) / double(std::min(na, nb));
   return match;
+}
+
+// Tracks are compared by T_a_b itself (where b's origin lands, and the yaw).
+msgs::ObjectMatch MatchTracker::Update(const msgs::ObjectMatch& match) {
+  if (match.status != MatchStatus::kMatched) return match;
+  Track* track = nullptr;
+  for (auto& t : tracks_) {
+    const double dx = t.T.x_m - match.T_a_b.x_m, dy = t.T.y_m - match.T_a_b.y_m;
+    if (std::sqrt(dx * dx + dy * dy) <= options_.same_m &&
+        std::abs(NormalizeAngle(t.T.yaw_rad - match.T_a_b.yaw_rad)) <= options_.same_rad) {
+      track = &t;
+      break;
+    }
+  }
+  if (!track) {
+    tracks_.push_back({match.T_a_b, 0});
+    track = &tracks_.back();
+  }
+  track->T = match.T_a_b;  // follow the newest answer as the maps grow
+  ++track->votes;
+  int others = 0;
+  for (const auto& t : tracks_) {
+    if (&t != track) others = std::max(others, t.votes);
+  }
+  msgs::ObjectMatch out = match;
+  if (track->votes < options_.min_votes || track->votes < options_.dominance * others) {
+    out.status = MatchStatus::kUnconfirmed;
+  }
+  return out;
 }
 
 }  // namespace draco::objects

@@ -64,6 +64,7 @@ struct PairOptions {
   registration::RegistrationOptions registration;  // min_overlap is applied by the caller
   std::vector<int> windows{0, 1, 3};
   objects::MatcherOptions matcher;
+  objects::CoverageOptions coverage;  // used when matcher.miss_weight > 0
   // Where matching is not right, seed registration with the ground-truth transform and the
   // true object pairs.
   bool oracle = false;
@@ -115,8 +116,18 @@ struct TimedMatch {
   bool matched = false, correct = false;
   double err_m = 0.0, err_deg = 0.0;
 };
+// Coverage of a robot's keyframes (map frame) with time_s <= until_s (negative evidence).
+objects::Coverage KeyframeCoverage(const Robot& r, const objects::CoverageOptions& options,
+                                   double until_s = 1e300);
+
+struct OverTimeOptions {
+  objects::CoverageOptions coverage;  // used when the matcher's miss_weight > 0
+  bool track = false;                 // pass the answers through an objects::MatchTracker
+  objects::TrackerOptions tracker;
+};
 std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
                                       const objects::ObjectMapperOptions& mapper,
-                                      const objects::MatcherOptions& matcher, double step_s);
+                                      const objects::MatcherOptions& matcher, double step_s,
+                                      const OverTimeOptions& over_time = {});
 
 }  // namespace draco::frontend

@@ -34,6 +34,9 @@ enum class MatchStatus : std::uint8_t {
   kNoCandidates,       // no object pair with similar shapes, or no pair of consistent edges
   kTooFewAssignments,  // fewer than min_assignments from the assignment problem
   kTooFewInliers,      // RANSAC or the re-match kept fewer than min_inliers
+  kContradicted,       // negative evidence: inliers - miss_weight * misses < min_inliers
+  kAmbiguous,          // a distinct runner-up hypothesis scores close to the best
+  kUnconfirmed,        // (MatchTracker) the transform has not won often enough yet
 };
 
 struct ObjectPair {
@@ -56,6 +59,12 @@ struct ObjectMatch {
   int num_inliers = 0;      // pairs.size()
   double rmse_m = 0.0;      // of pairs
   double confidence = 0.0;  // num_inliers / min(n_a, n_b), in [0, 1]
+  // Negative evidence (with coverages): objects placed by T_a_b inside the other robot's
+  // observed area with no object of that robot near them, both ways.
+  int num_misses = 0;
+  // Support of the best hypothesis distinct from the winner over the winner's, each beyond a
+  // two-point sample (0: none; graph_matcher.hpp).
+  double ambiguity = 0.0;
 };
 
 inline const char* MatchStatusName(MatchStatus status) {
@@ -70,6 +79,12 @@ inline const char* MatchStatusName(MatchStatus status) {
       return "too few assignments";
     case MatchStatus::kTooFewInliers:
       return "too few inliers";
+    case MatchStatus::kContradicted:
+      return "contradicted";
+    case MatchStatus::kAmbiguous:
+      return "ambiguous";
+    case MatchStatus::kUnconfirmed:
+      return "unconfirmed";
   }
   return "unknown";
 }

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "draco/msgs/objects.hpp"
+#include "draco/objects/geometry.hpp"
 
 namespace draco::objects {
 
@@ -29,7 +30,8 @@ enum class AffinityForm { kCode, kPaper, kRelative };
 
 struct MatcherOptions {
   // Defaults measured on the default missions (docs/front-end.md, "Matching on the default
-  // missions"); the reference code: kCode, mu 8, 5 m, 4 inliers.
+  // missions"); the reference code: kCode, mu 8, 5 m, 4 inliers, no negative evidence, no
+  // ambiguity test.
   AffinityForm affinity = AffinityForm::kRelative;
   double mu_per_m = 2.0;  // the code's 8 (the paper says 4)
   // kRelative: |dl| + |db| is divided by 1 + this * max(l_i, l_k).
@@ -54,6 +56,53 @@ struct MatcherOptions {
   int ransac_iterations = 1000;     // all pairs of assignments when there are fewer pairs
   std::uint64_t seed = 1;
   double rematch_distance_m = 5.0;
+  // Negative evidence (needs the coverages passed to MatchObjectMaps): a hypothesis is
+  // charged for every object it places inside the other robot's observed area with no object
+  // of that robot within miss_distance_m (both ways). RANSAC scores inliers - miss_weight *
+  // misses, and the final match needs that net score >= min_inliers (else kContradicted).
+  // A row of identical piles aligned one spacing off leaves the row's ends over water the
+  // other robot saw empty. 0: off.
+  // Off by default: 0.5 gives the same answers as off on the default missions at 5 inliers;
+  // at 3 inliers it removes every wrong airplane answer and 98 of 116 wrong marina ones
+  // (docs/front-end.md, "Marina: negative evidence ...").
+  double miss_weight = 0.0;
+  double miss_distance_m = 3.0;
+  // Ambiguity: no match (kAmbiguous) when the best RANSAC hypothesis distinct from the
+  // winner (b's assigned centres moved by more than distinct_m on average, or the yaw by more
+  // than distinct_rad) has at least this fraction of the winner's support beyond a two-point
+  // sample (see verify_candidates). 0: off.
+  // Off by default: 0.6 costs right answers (airplane 10 instead of 12; synthetic worlds
+  // 34/50 instead of 49/50 at p = 0.4) and removes no wrong one at 5 inliers.
+  double max_ambiguity_ratio = 0.0;
+  double distinct_m = 3.0;
+  double distinct_rad = 0.1745;  // 10 deg
+  // Verification (with miss_weight or the ambiguity test): hypotheses from pairs of each a
+  // object's top verify_candidates b objects by eigenvector weight (every pair, or this many
+  // random pairs when there are more), scored on all objects.
+  int verify_candidates = 3;
+  int verify_iterations = 2000;
+};
+
+// The area a robot's sonar observed, in its map frame, as a grid of cells (negative evidence:
+// an object there would have been seen). Built from the keyframe poses: a cell is observed
+// when its centre lies within range_m and half_aperture_rad of a keyframe's heading.
+struct CoverageOptions {
+  double range_m = 20.0;              // less than the sonar's 30 m: objects far out are faint
+  double half_aperture_rad = 1.1345;  // 65 deg, the sonar's 130 deg aperture
+  double cell_m = 1.0;
+};
+class Coverage {
+ public:
+  Coverage() = default;
+  Coverage(const std::vector<Pose2>& sensor_poses, const CoverageOptions& options = {});
+  bool Observed(const Point2& p) const;
+  bool empty() const { return cells_.empty(); }
+  double ObservedFraction() const;  // of the grid's cells (for reports)
+
+ private:
+  double cell_m_ = 1.0, x0_ = 0.0, y0_ = 0.0;
+  int nx_ = 0, ny_ = 0;
+  std::vector<std::uint8_t> cells_;
 };
 
 // Symmetric sparse storage: each entry stands for M(r, c) = v_rc and M(c, r) = v_cr.
@@ -84,7 +133,42 @@ std::vector<double> AssignmentWeights(const msgs::ObjectMap& a, const msgs::Obje
 
 // Matches teammate map b against own map a: T_a_b, pairs, inliers and a confidence, or the
 // reason for no match.
+// coverage_a / coverage_b: the robots' observed areas in their map frames (negative
+// evidence, options.miss_weight); either may be null (no misses counted that way).
 msgs::ObjectMatch MatchObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
-                                  const MatcherOptions& options = {});
+                                  const MatcherOptions& options = {},
+                                  const Coverage* coverage_a = nullptr,
+                                  const Coverage* coverage_b = nullptr);
+
+// Objects of `from` placed by T_to_from inside `to_coverage` with no object of `to` within
+// distance_m.
+int CountMisses(const msgs::ObjectMap& from, const msgs::ObjectMap& to, const Pose2& T_to_from,
+                const Coverage& to_coverage, double distance_m);
+
+// Time consistency across exchanges: the answers of one robot pair over time. A transform is
+// passed on only once it has won at least min_votes exchanges (answers within same_m /
+// same_rad of each other are one track; the track follows the newest answer as the maps
+// grow) and has at least `dominance` times the votes of every other track; otherwise the
+// answer becomes kUnconfirmed. Answers other than kMatched pass through unchanged.
+struct TrackerOptions {
+  int min_votes = 2;
+  double dominance = 2.0;
+  double same_m = 2.0;
+  double same_rad = 0.1745;  // 10 deg
+};
+class MatchTracker {
+ public:
+  explicit MatchTracker(const TrackerOptions& options = {}) : options_(options) {}
+  msgs::ObjectMatch Update(const msgs::ObjectMatch& match);
+  std::size_t num_tracks() const { return tracks_.size(); }
+
+ private:
+  struct Track {
+    Pose2 T;
+    int votes = 0;
+  };
+  TrackerOptions options_;
+  std::vector<Track> tracks_;
+};
 
 }  // namespace draco::objects
