@@ -8,6 +8,7 @@
 #include <memory>
 #include <mutex>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -15,6 +16,7 @@
 #include "draco/graph/component.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
+#include "draco/graph/progress.hpp"
 #include "draco/msgs/map.hpp"
 #include "draco/objects/graph_matcher.hpp"
 #include "draco/objects/object_mapper.hpp"
@@ -60,7 +62,8 @@ DRACO_REGISTER_COMPONENT(Capture, "frontend_eval.Capture")
 std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const std::string& name,
                                             int slot, const std::string& graph_path,
                                             const std::string& run_dir,
-                                            const std::vector<std::string>& overrides) {
+                                            const std::vector<std::string>& overrides,
+                                            bool progress) {
   std::ifstream in(graph_path);
   if (!in) throw std::runtime_error("cannot read " + graph_path);
   std::stringstream text;
@@ -80,7 +83,15 @@ std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const st
   graph::RunOptions run;
   run.output_dir = run_dir;
   run.log_errors = false;
+  // Progress of the replay (robot, mission time, %, rate, time left); one robot at a time only,
+  // so lines of robots replayed in parallel do not overwrite each other.
+  std::optional<graph::ProgressPrinter> printer;
+  if (progress) {
+    printer.emplace("local SLAM " + name, recording::RobotReplayLengthS(mission, name));
+    run.progress = [&](graph::Time t) { printer->Update(t); };
+  }
   const auto result = graph::RunDeterministic(*g, run);
+  if (printer) printer->Finish(graph::Time::FromSeconds(result.stats.mission_s));
   if (!result.ok) throw std::runtime_error(name + ": " + result.error);
   std::lock_guard lock(g_capture_mutex);
   const auto& c = g_captured[slot];
@@ -194,7 +205,7 @@ std::vector<Robot> RunRobots(const std::string& mission, const recording::Missio
         if (!(options.reuse && LoadKeyframes(cache, &r.kfs))) {
           std::fprintf(stderr, "local SLAM of %s ...\n", r.name.c_str());
           r.kfs = RunLocalSlam(mission, r.name, static_cast<int>(i), options.graph_path,
-                               out_dir + "/slam", options.overrides);
+                               out_dir + "/slam", options.overrides, options.jobs <= 1);
           SaveKeyframes(cache, r.kfs);
         }
         r.slam_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - s).count();
