@@ -6,8 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <sstream>
 #include <thread>
+
+#include <nlohmann/json.hpp>
 
 namespace draco::fleet {
 namespace {
@@ -51,15 +52,6 @@ std::uint32_t DrawIncarnation() {
   x ^= x >> 33;
   const auto v = static_cast<std::uint32_t>(x);
   return v == 0 ? 1u : v;
-}
-
-std::string JsonEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out;
 }
 
 }  // namespace
@@ -426,53 +418,60 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
 void LinkEndpoint::Close(double now_s) { SendClock(now_s, true); }
 
 std::string LinkEndpoint::StatsJson() const {
-  std::ostringstream o;
-  o.precision(10);
+  using nlohmann::json;
   const auto& s = channel_.stats();
-  o << "{\n  \"robot_id\": " << options_.robot_id
-    << ",\n  \"incarnation\": " << options_.incarnation << ",\n  \"transport\": \""
-    << JsonEscape(transport_->Describe())
-    << "\",\n  \"team_rate_bps\": " << options_.channel.team_rate_bps
-    << ",\n  \"busy_s\": " << s.busy_s << ",\n  \"kinds\": {";
-  bool first = true;
+  json kinds = json::object();
   for (int k = 1; k < msgs::kNumFleetKinds; ++k) {
     const auto& ks = s.by_kind[k];
-    o << (first ? "\n" : ",\n") << "    \"" << msgs::FleetKindName(static_cast<FleetKind>(k))
-      << "\": {\"frames_sent\": " << ks.frames_sent << ", \"bits_sent\": " << ks.bits_sent
-      << ", \"mean_bits\": "
-      << (ks.frames_sent ? static_cast<double>(ks.bits_sent) / ks.frames_sent : 0.0)
-      << ", \"max_bits\": " << ks.max_bits << ", \"dropped_queue\": " << ks.dropped_queue
-      << ", \"dropped_expired\": " << ks.dropped_expired << ", \"lost\": " << ks.lost
-      << ", \"frames_received\": " << ks.frames_received
-      << ", \"bits_received\": " << ks.bits_received << ", \"rejected\": " << ks.rejected << "}";
-    first = false;
+    kinds[msgs::FleetKindName(static_cast<FleetKind>(k))] = {
+        {"frames_sent", ks.frames_sent},
+        {"bits_sent", ks.bits_sent},
+        {"mean_bits", ks.frames_sent ? static_cast<double>(ks.bits_sent) / ks.frames_sent : 0.0},
+        {"max_bits", ks.max_bits},
+        {"dropped_queue", ks.dropped_queue},
+        {"dropped_expired", ks.dropped_expired},
+        {"lost", ks.lost},
+        {"frames_received", ks.frames_received},
+        {"bits_received", ks.bits_received},
+        {"rejected", ks.rejected}};
   }
   const auto tc = transport_->counters();
-  o << "\n  },\n  \"counters\": {\"unknown_robot\": " << counters_.unknown_robot
-    << ", \"not_for_us\": " << counters_.not_for_us << ", \"rejected\": " << counters_.rejected
-    << ", \"header_mismatch\": " << counters_.header_mismatch
-    << ", \"inbox_overflow\": " << counters_.inbox_overflow
-    << ", \"encode_errors\": " << counters_.encode_errors << ", \"last_encode_error\": \""
-    << JsonEscape(counters_.last_encode_error) << "\""
-    << ", \"lockstep_timeouts\": " << counters_.lockstep_timeouts
-    << ", \"lockstep_wait_s\": " << counters_.lockstep_wait_s
-    << ", \"transport_frames_sent\": " << tc.frames_sent
-    << ", \"transport_frames_received\": " << tc.frames_received
-    << ", \"transport_frames_malformed\": " << tc.frames_malformed << "},\n  \"teammates\": [";
-  first = true;
+  json teammates = json::array();
   for (const auto& [id, t] : teammates_) {
-    o << (first ? "\n" : ",\n") << "    {\"robot_id\": " << id
-      << ", \"known\": " << (t.known ? "true" : "false") << ", \"incarnation\": " << t.incarnation
-      << ", \"frames_received\": " << t.frames_received
-      << ", \"frames_rejected\": " << t.frames_rejected
-      << ", \"base_mismatches\": " << t.base_mismatches << ", \"restarts\": " << t.restarts
-      << ", \"frames_since_restart\": " << t.frames_since_restart
-      << ", \"held_map_version\": " << t.held_map_version
-      << ", \"acked_own_version\": " << t.acked_own_version << "}";
-    first = false;
+    teammates.push_back({{"robot_id", id},
+                         {"known", t.known},
+                         {"incarnation", t.incarnation},
+                         {"frames_received", t.frames_received},
+                         {"frames_rejected", t.frames_rejected},
+                         {"base_mismatches", t.base_mismatches},
+                         {"restarts", t.restarts},
+                         {"frames_since_restart", t.frames_since_restart},
+                         {"held_map_version", t.held_map_version},
+                         {"acked_own_version", t.acked_own_version}});
   }
-  o << "\n  ]\n}\n";
-  return o.str();
+  const json out = {{"robot_id", options_.robot_id},
+                    {"incarnation", options_.incarnation},
+                    {"transport", transport_->Describe()},
+                    {"team_rate_bps", options_.channel.team_rate_bps},
+                    {"busy_s", s.busy_s},
+                    {"kinds", kinds},
+                    {"counters",
+                     {{"unknown_robot", counters_.unknown_robot},
+                      {"not_for_us", counters_.not_for_us},
+                      {"rejected", counters_.rejected},
+                      {"header_mismatch", counters_.header_mismatch},
+                      {"inbox_overflow", counters_.inbox_overflow},
+                      {"encode_errors", counters_.encode_errors},
+                      {"last_encode_error", counters_.last_encode_error},
+                      {"lockstep_timeouts", counters_.lockstep_timeouts},
+                      {"lockstep_wait_s", counters_.lockstep_wait_s},
+                      {"transport_frames_sent", tc.frames_sent},
+                      {"transport_frames_received", tc.frames_received},
+                      {"transport_frames_malformed", tc.frames_malformed},
+                      {"transport_frames_own", tc.frames_own},
+                      {"transport_send_failed", tc.send_failed}}},
+                    {"teammates", teammates}};
+  return out.dump(2) + "\n";
 }
 
 }  // namespace draco::fleet
