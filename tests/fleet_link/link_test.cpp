@@ -216,5 +216,35 @@ TEST(LinkEndpoint, LockstepWaitsForALaggingTeammateAndStopsWaitingWhenItLeaves) 
   EXPECT_EQ(la.counters().lockstep_timeouts, 0u);
 }
 
+TEST(LinkEndpoint, AFloodingTeammateCannotCrowdOutTheOthers) {
+  const std::string bus = Bus();
+  LinkOptions o = Options(0, 1);
+  o.max_held_frames = 40;  // 20 per teammate
+  LinkEndpoint a(o, middleware::MakeInProcessTransport(bus, 0));
+  LinkEndpoint c(Options(2, 3), middleware::MakeInProcessTransport(bus, 2));
+  auto flooder = middleware::MakeInProcessTransport(bus, 1);
+  a.Tick(0.0, nullptr);
+  c.Tick(0.0, nullptr);
+  middleware::Frame f;
+  f.kind = 1;
+  f.delivered_s = 1e9;  // far in the future: held, never due
+  f.payload = {1, 2, 3};
+  for (std::uint32_t i = 0; i < 500; ++i) {
+    f.seq = i;
+    flooder->Send(f);
+  }
+  a.Tick(0.5, nullptr);
+  EXPECT_EQ(a.counters().inbox_overflow, 480u);
+  EXPECT_EQ(a.teammates().at(1).held_frames, 20u);
+  // Robot 2's heartbeats still get through.
+  c.Tick(0.5, nullptr);
+  c.Tick(1.0, nullptr);
+  a.Tick(1.0, nullptr);
+  const auto in = a.Tick(1.5, nullptr);
+  EXPECT_TRUE(a.teammates().at(2).known);
+  EXPECT_GT(a.teammates().at(2).frames_received, 0u);
+  (void)in;
+}
+
 }  // namespace
 }  // namespace draco::fleet

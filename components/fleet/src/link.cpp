@@ -212,10 +212,15 @@ void LinkEndpoint::ReceiveAll(double now_s) {
       t->silent = false;
       continue;
     }
-    if (inbox_.size() >= options_.max_held_frames) {
+    // Each teammate gets its share of the inbox: one that floods it (or stamps frames far in
+    // the future) cannot crowd out the others.
+    const std::size_t share = std::max<std::size_t>(
+        1, options_.max_held_frames / std::max<std::size_t>(1, teammates_.size()));
+    if (t->held_frames >= share) {
       ++counters_.inbox_overflow;
       continue;
     }
+    ++t->held_frames;
     inbox_.Add(std::move(f));
   }
 }
@@ -398,7 +403,12 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
 
   msgs::FleetIncoming in;
   in.time_s = now_s;
-  for (const auto& f : inbox_.Due(now_s)) Deliver(f, now_s, &in);
+  for (const auto& f : inbox_.Due(now_s)) {
+    if (TeammateLinkState* t = Teammate(f.source); t != nullptr && t->held_frames > 0) {
+      --t->held_frames;
+    }
+    Deliver(f, now_s, &in);
+  }
   for (auto& [id, t] : teammates_) {
     if (t.known && !t.silent && !t.left && t.last_heard_s >= 0.0 &&
         now_s - t.last_heard_s > options_.silence_s) {

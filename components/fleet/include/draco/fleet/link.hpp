@@ -49,7 +49,7 @@ struct LinkOptions {
   double lockstep_timeout_s = 10.0;  // wall seconds
   double startup_timeout_s = 30.0;   // wall seconds to discover every teammate (first tick)
   double max_lag_s = 2.0;  // a teammate further behind (restarted, stalled) is not waited for
-  std::size_t max_held_frames = 4096;  // receiver inbox bound
+  std::size_t max_held_frames = 4096;  // receiver inbox bound, shared equally by the teammates
 };
 
 struct TeammateLinkState {
@@ -69,6 +69,7 @@ struct TeammateLinkState {
   std::uint64_t frames_received = 0;
   std::uint64_t frames_rejected = 0;
   std::uint64_t base_mismatches = 0;
+  std::size_t held_frames = 0;             // its frames in the inbox, not yet due
   int restarts = 0;                        // new incarnations seen after the first
   std::uint64_t frames_since_restart = 0;  // messages from the current incarnation
 };
