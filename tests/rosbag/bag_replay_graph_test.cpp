@@ -1,6 +1,9 @@
 // A ROS 1 bag replayed through the runtime: sonar.BagReader feeding sonar.Cfar in a YAML
 // graph, deterministic executor, run twice with identical statistics.
+#include <filesystem>
 #include <string>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -44,6 +47,29 @@ TEST(BagReplayGraph, PingsReachTheFeatureExtractorDeterministically) {
   EXPECT_EQ(Find(second.stats, "robot")->calls, robot->calls);
   EXPECT_EQ(Find(second.stats, "cfar")->calls, cfar->calls);
   EXPECT_EQ(second.stats.mission_s, first.stats.mission_s);
+}
+
+// The shipped local-SLAM graph for bags (config/graphs/local-slam-bag.yaml) runs end to end on
+// a bag and writes every local-SLAM output; its ground truth holds the bag's poses.
+TEST(BagReplayGraph, ShippedLocalSlamGraphRunsOnABag) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("draco_bag_local_slam_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  graph::LoadOptions load;
+  load.overrides = {"reader.bag=" + testbags::Path("full.bag")};
+  auto g = graph::LoadGraphFile(DRACO_SOURCE_DIR "/config/graphs/local-slam-bag.yaml", load);
+  graph::RunOptions run;
+  run.output_dir = dir.string();
+  const auto result = graph::RunDeterministic(*g, run);
+  ASSERT_TRUE(result.ok) << result.error;
+  for (const char* name : {"trajectory.tum", "dead_reckoning.tum", "ground_truth.tum",
+                           "pose_graph.g2o", "map.ply", "map.pcd"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / name)) << name;
+  }
+  const auto* cfar = Find(result.stats, "cfar");
+  ASSERT_NE(cfar, nullptr);
+  EXPECT_EQ(cfar->calls, 3u);  // one per ping of the bag
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
