@@ -21,7 +21,9 @@
 namespace draco::middleware {
 namespace {
 
-constexpr std::int32_t kHistoryDepth = 64;
+// Deep enough that a reader busy for seconds (a long optimisation step) loses nothing of a
+// teammate that keeps ticking: a robot sends a few frames per 0.5 s tick.
+constexpr std::int32_t kHistoryDepth = 1024;
 constexpr std::uint32_t kTakeBatch = 32;
 
 std::string Where(const DdsOptions& options) {

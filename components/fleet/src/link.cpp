@@ -278,8 +278,10 @@ void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& c
       }
       break;
     }
-    if (std::chrono::duration<double>(now - last_clock).count() > 0.05) {
-      SendClock(now_s, false);  // repeat: a teammate may have matched since
+    if (!started_ && std::chrono::duration<double>(now - last_clock).count() > 0.05) {
+      // Discovery: repeat, a teammate's reader may have matched since. Once running, one
+      // clock frame per tick (reliable) is enough, and repeats would only fill histories.
+      SendClock(now_s, false);
       last_clock = now;
     }
     std::this_thread::sleep_for(std::chrono::microseconds(500));
