@@ -4,7 +4,7 @@
 // stop it cleanly and its outputs are flushed.
 //
 //   draco-robot --mission /tmp/marina --robot alpha --out runs/fleet/dds
-//   draco-robot --mission /tmp/marina --robot bravo --domain 7 --set agent.method=pcm
+//   draco-robot --mission /tmp/marina --robot bravo --domain 7 --set filter.method=pcm
 //
 // Outputs in --out, prefixed with the robot name: local SLAM (trajectory, dead reckoning,
 // pose graph, map), team estimate (team.<robot>.tum for every robot placed, inter_loops.csv,
@@ -29,7 +29,7 @@ extern "C" void OnSignal(int) { g_stop = true; }
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"draco-robot: one robot's SLAM daemon (local SLAM, team agent, fleet link)"};
+  CLI::App app{"draco-robot: one robot's SLAM daemon (local SLAM, team stages, fleet link)"};
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";

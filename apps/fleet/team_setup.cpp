@@ -55,9 +55,15 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
       p + "reader.robot=" + name,
       p + "slam.prefix=" + name + ".",
       p + "truth.file=" + name + ".ground_truth.tum",
-      p + "agent.robot_id=" + std::to_string(s.robot_id),
-      p + "agent.prefix=" + name + ".",
-      p + "agent.team_names=" + List(s.team),
+      p + "mapper.robot_id=" + std::to_string(s.robot_id),
+      p + "matcher.robot_id=" + std::to_string(s.robot_id),
+      p + "exchange.robot_id=" + std::to_string(s.robot_id),
+      p + "filter.robot_id=" + std::to_string(s.robot_id),
+      p + "optimizer.robot_id=" + std::to_string(s.robot_id),
+      p + "mapper.prefix=" + name + ".",
+      p + "filter.prefix=" + name + ".",
+      p + "optimizer.prefix=" + name + ".",
+      p + "optimizer.team_names=" + List(s.team),
       p + "link.robot_id=" + std::to_string(s.robot_id),
       p + "link.team=" + List(ids),
       p + "link.prefix=" + name + ".",
@@ -69,8 +75,8 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
   if (!s.dds_config.empty()) o.push_back(p + "link.dds_config=" + s.dds_config);
   if (Airplane(s.world)) {
     // As draco-team-eval: nearer candidates on the airplane (docs/front-end.md).
-    o.push_back(p + "agent.candidate_radius_m=20");
-    o.push_back(p + "agent.candidate_max_yaw_rad=" + std::to_string(std::numbers::pi / 2));
+    o.push_back(p + "exchange.candidate_radius_m=20");
+    o.push_back(p + "exchange.candidate_max_yaw_rad=" + std::to_string(std::numbers::pi / 2));
   }
   return o;
 }

@@ -1,6 +1,7 @@
-// TeamAgent on a synthetic two-robot world: rectangular objects (outlines as points), robot A
-// and robot B surveying it in lawnmower rows, B's map frame rotated and moved against A's by
-// a known transform. The two agents exchange their outboxes directly (no link) step by step.
+// TeamAgent (the five stages of stages.hpp chained) on a synthetic two-robot world: rectangular
+// objects (outlines as points), robot A and robot B surveying it in lawnmower rows, B's map frame
+// rotated and moved against A's by a known transform. The two agents exchange their outboxes
+// directly (no link) step by step.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -12,6 +13,7 @@
 #include <set>
 #include <vector>
 
+#include "draco/agent/stages.hpp"
 #include "draco/agent/team_agent.hpp"
 #include "draco/registration/registration.hpp"
 
@@ -588,6 +590,145 @@ TEST(AgentMessages, ForgetAndNewIncarnationClearTeammate) {
   for (std::size_t k = 0; k < own.size(); ++k) {
     EXPECT_EQ(own[k].T_map_kf.x_m, run.a.keyframes[k].T_odom_body.x_m);
   }
+}
+
+// ---------------------------------------------------------------------- the stages alone
+
+TEST(ObjectMapperStage, PublishesAtMostEveryPeriodWhenChanged) {
+  const auto world = World(7);
+  const RobotData r = MakeRobot(kA, world, Lawnmower({10.0, 40.0}, true), {}, 1);
+  ObjectMapperStageOptions o;
+  o.robot_id = kA;
+  o.object_map_period_s = 10.0;
+  ObjectMapperStage stage(o);
+  double last_sent = -1e9;
+  int sent = 0, poses_sent = 0;
+  std::uint64_t version = 0;
+  std::size_t next = 0;
+  for (int t = 1; t <= 140; ++t) {
+    bool any = false;
+    while (next < r.keyframes.size() && r.keyframes[next].time_s <= t) {
+      stage.OnKeyframe(r.keyframes[next++]);
+      any = true;
+    }
+    if (any && t <= 100) {  // no new keyframes or poses after 100 s
+      msgs::KeyframeTrajectory traj;
+      for (std::size_t k = 0; k < next; ++k) {
+        traj.keyframes.push_back(
+            {static_cast<int>(k), r.keyframes[k].time_s, r.keyframes[k].T_odom_body});
+      }
+      stage.OnTrajectory(traj);
+    }
+    msgs::TeamStepStats st;
+    const auto out = stage.Step(t, &st);
+    EXPECT_EQ(st.time_s, t);
+    EXPECT_GE(stage.version(), version);
+    if (out.has_object_map) {
+      EXPECT_GE(t - last_sent, o.object_map_period_s) << t;
+      EXPECT_EQ(out.object_map.robot_id, kA);
+      EXPECT_FALSE(out.object_map.objects.empty());
+      last_sent = t;
+      ++sent;
+    }
+    if (out.has_poses) {
+      ++poses_sent;
+      EXPECT_LE(t, 100);                  // only when a pose changed
+      EXPECT_EQ(out.poses.size(), next);  // every own keyframe, current pose
+    }
+    version = stage.version();
+  }
+  EXPECT_GE(sent, 3);
+  EXPECT_GT(poses_sent, 10);
+  EXPECT_LE(stage.version(), 100u);  // changes only while keyframes came
+}
+
+TEST(GraphMatcherStage, ReverseGuessAndRestart) {
+  GraphMatcherStageOptions o;
+  o.robot_id = kA;
+  GraphMatcherStage stage(o);
+  msgs::ScanRequest req;
+  req.header.robot_id = kB;
+  req.header.incarnation = 5;
+  req.target_robot = kA;
+  req.T_requester_target = {10.0, -2.0, 0.3};
+  stage.OnScanRequest(req);
+  const Pose2* g = msgs::GuessOf(stage.matches(), kB);
+  ASSERT_NE(g, nullptr);
+  const Pose2 e = reg::Between(reg::Inverse(req.T_requester_target), *g);
+  EXPECT_LT(std::hypot(e.x_m, e.y_m), 1e-9);
+  EXPECT_FALSE(stage.matches().guesses.at(kB).matched);
+  // Not for us, or from ourselves: ignored.
+  msgs::ScanRequest other = req;
+  other.target_robot = 2;
+  other.header.robot_id = 2;
+  stage.OnScanRequest(other);
+  other = req;
+  other.header.robot_id = kA;
+  stage.OnScanRequest(other);
+  EXPECT_EQ(stage.matches().guesses.size(), 1u);
+  // A new incarnation forgets the guess; its map is held, unmatched.
+  msgs::FleetHeader h = req.header;
+  h.incarnation = 6;
+  stage.OnTeammateObjectMap(h, msgs::ObjectMap{});
+  EXPECT_EQ(msgs::GuessOf(stage.matches(), kB), nullptr);
+  EXPECT_EQ(stage.teammates().count(kB), 1u);
+  // Nothing to match against an empty map.
+  msgs::TeamStepStats st;
+  EXPECT_TRUE(stage.Step(20.0, msgs::ObjectMap{}, 1, &st).empty());
+  EXPECT_EQ(st.matches_tried, 0);
+  stage.Forget(kB);
+  EXPECT_EQ(stage.teammates().count(kB), 0u);
+}
+
+TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
+  Mission run;
+  Simulate(&run);
+  // A's registrations of B's scans, as the exchange gave them, replayed into a fresh filter
+  // with A's trajectory, B's poses and A's final guess.
+  const auto& held = run.agent_a->consistency().candidates();
+  std::vector<msgs::InterRobotLoop> registered;
+  for (auto l : held) {
+    if (l.own_robot != kA) continue;
+    l.id = 0;
+    l.flags = 0;
+    registered.push_back(l);
+  }
+  ASSERT_GE(registered.size(), 5u);
+  ConsistencyStage stage(TeamAgent::ConsistencyOptions(Options(kA)));
+  msgs::KeyframeTrajectory traj;
+  for (const auto& k : run.a.keyframes)
+    traj.keyframes.push_back({k.index, k.time_s, k.T_odom_body});
+  stage.OnTrajectory(traj);
+  msgs::KeyframePoses poses;
+  poses.header.robot_id = kB;
+  poses.header.incarnation = run.b.incarnation;
+  poses.full = true;
+  for (const auto& k : run.b.keyframes) {
+    poses.poses.push_back(
+        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
+  }
+  stage.OnKeyframePoses(poses);
+  const msgs::MapMatches& matches = run.agent_a->matcher().matches();
+  msgs::TeamStepStats st;
+  const auto sent = stage.Step(100.0, registered, matches, &st);
+  EXPECT_EQ(st.candidates_added, static_cast<int>(registered.size()));
+  ASSERT_EQ(stage.candidates().size(), registered.size());
+  for (std::size_t i = 0; i < registered.size(); ++i) {
+    EXPECT_EQ(stage.candidates()[i].id, i);  // numbered in order from 0
+  }
+  EXPECT_EQ(st.loops_accepted, static_cast<int>(stage.accepted().size()));
+  EXPECT_GE(stage.accepted().size(), 5u);
+  ASSERT_EQ(sent.size(), 1u);  // one message to B with every accepted loop
+  EXPECT_EQ(sent[0].target_robot, kB);
+  EXPECT_EQ(sent[0].loops.size(), stage.accepted().size());
+  for (const auto& l : sent[0].loops) EXPECT_EQ(l.flags, msgs::kLoopAccepted);
+  // Nothing new: nothing sent again.
+  msgs::TeamStepStats st2;
+  EXPECT_TRUE(stage.Step(101.0, {}, matches, &st2).empty());
+  EXPECT_EQ(st2.candidates_added, 0);
+  // A restart of B drops its candidates.
+  stage.Forget(kB);
+  EXPECT_TRUE(stage.candidates().empty());
 }
 
 }  // namespace

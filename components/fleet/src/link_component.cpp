@@ -1,5 +1,7 @@
 // Runtime adapter fleet.Link: a robot's end of the fleet link (LinkEndpoint) over the
 // in-process bus (deterministic replay, tests) or Cyclone DDS (one daemon per robot).
+// One input per kind of message to send and one output per kind of message received, so the
+// team stages (components/agent) wire to exactly what they send and use.
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -25,9 +27,27 @@ class LinkComponent final : public graph::Component {
         "acoustic channel model (team budget, latency, loss, turn-taking), teammate liveness "
         "and restarts; in-process bus or Cyclone DDS. Writes <prefix>link_stats.json and "
         "<prefix>link_traffic.csv.");
-    outgoing_ = spec.Input<msgs::FleetOutgoing>(
-        "outgoing", {.trigger = false, .depth = 256, .doc = "what the team agent wants sent"});
-    incoming_ = spec.Output<msgs::FleetIncoming>("incoming", "decoded teammate messages");
+    const auto send = [](const char* doc) {
+      return graph::InputOptions{.trigger = false, .depth = 4096, .required = false, .doc = doc};
+    };
+    object_map_ = spec.Input<msgs::ObjectMap>(
+        "object_map", send("own object map to send (full; the newest is sent as a delta)"));
+    poses_ = spec.Input<msgs::KeyframePoses>(
+        "keyframe_poses", send("every own keyframe pose (the newest is sent as an update)"));
+    requests_ = spec.Input<msgs::ScanRequest>("scan_requests", send("scan requests to send"));
+    replies_ = spec.Input<msgs::ScanReply>("scan_replies", send("scans to send"));
+    loops_ = spec.Input<msgs::LoopClosureMessage>("loop_closures", send("accepted loops to send"));
+    events_ = spec.Output<msgs::TeammateEvent>("teammate_events",
+                                               "a teammate joined, restarted, went silent or left");
+    maps_out_ = spec.Output<msgs::TeammateObjectMap>(
+        "teammate_object_maps", "a teammate's object map after an update was applied");
+    poses_out_ =
+        spec.Output<msgs::KeyframePoses>("teammate_keyframe_poses", "a teammate's keyframe poses");
+    requests_out_ =
+        spec.Output<msgs::ScanRequest>("teammate_scan_requests", "scan requests for us");
+    replies_out_ = spec.Output<msgs::ScanReply>("teammate_scan_replies", "scans for our requests");
+    loops_out_ = spec.Output<msgs::LoopClosureMessage>("teammate_loop_closures",
+                                                       "loops teammates accepted with us");
     spec.Timer("tick", 0.5, "queue, transmit, receive and deliver every 0.5 s of mission time");
     spec.Param("robot_id", &o_.robot_id, {.doc = "own robot id", .min = 0, .max = 63});
     spec.Param("team", &team_,
@@ -94,26 +114,28 @@ class LinkComponent final : public graph::Component {
     // and loop message.
     msgs::FleetOutgoing merged;
     bool any = false;
-    for (const auto& m : outgoing_.TakeAll()) {
-      any = true;
-      const auto& out = *m.value;
-      merged.time_s = out.time_s;
-      if (out.has_object_map) {
-        merged.has_object_map = true;
-        merged.object_map = out.object_map;
-      }
-      if (out.has_poses) {
-        merged.has_poses = true;
-        merged.poses = out.poses;
-      }
-      merged.requests.insert(merged.requests.end(), out.requests.begin(), out.requests.end());
-      merged.replies.insert(merged.replies.end(), out.replies.begin(), out.replies.end());
-      merged.loops.insert(merged.loops.end(), out.loops.begin(), out.loops.end());
+    for (const auto& m : object_map_.TakeAll()) {
+      any = merged.has_object_map = true;
+      merged.object_map = *m;
     }
+    for (const auto& m : poses_.TakeAll()) {
+      any = merged.has_poses = true;
+      merged.poses = m->poses;
+    }
+    for (const auto& m : requests_.TakeAll()) any = true, merged.requests.push_back(*m);
+    for (const auto& m : replies_.TakeAll()) any = true, merged.replies.push_back(*m);
+    for (const auto& m : loops_.TakeAll()) any = true, merged.loops.push_back(*m);
     const double now_s = ctx.Now().Seconds();
+    merged.time_s = now_s;
     last_s_ = now_s;
     auto in = link_->Tick(now_s, any ? &merged : nullptr, [&ctx] { return ctx.StopRequested(); });
-    if (!in.empty()) incoming_.PublishAt(ctx.Now(), std::move(in));
+    // One message per item, kinds in this order (the team stages absorb them in it).
+    for (auto& e : in.events) events_.PublishAt(ctx.Now(), e);
+    for (auto& m : in.object_maps) maps_out_.PublishAt(ctx.Now(), std::move(m));
+    for (auto& m : in.poses) poses_out_.PublishAt(ctx.Now(), std::move(m));
+    for (auto& m : in.requests) requests_out_.PublishAt(ctx.Now(), std::move(m));
+    for (auto& m : in.replies) replies_out_.PublishAt(ctx.Now(), std::move(m));
+    for (auto& m : in.loops) loops_out_.PublishAt(ctx.Now(), std::move(m));
     return Status::Ok();
   }
 
@@ -145,8 +167,17 @@ class LinkComponent final : public graph::Component {
   std::string prefix_;
   double last_s_ = 0.0;
   std::unique_ptr<LinkEndpoint> link_;
-  graph::In<msgs::FleetOutgoing> outgoing_;
-  graph::Out<msgs::FleetIncoming> incoming_;
+  graph::In<msgs::ObjectMap> object_map_;
+  graph::In<msgs::KeyframePoses> poses_;
+  graph::In<msgs::ScanRequest> requests_;
+  graph::In<msgs::ScanReply> replies_;
+  graph::In<msgs::LoopClosureMessage> loops_;
+  graph::Out<msgs::TeammateEvent> events_;
+  graph::Out<msgs::TeammateObjectMap> maps_out_;
+  graph::Out<msgs::KeyframePoses> poses_out_;
+  graph::Out<msgs::ScanRequest> requests_out_;
+  graph::Out<msgs::ScanReply> replies_out_;
+  graph::Out<msgs::LoopClosureMessage> loops_out_;
 };
 
 }  // namespace

@@ -1,33 +1,13 @@
-// One robot's inter-robot SLAM as a running system (DRACo-SLAM2 sections III-A to III-F),
-// fed step by step with its own local SLAM and whatever teammates sent. No runtime, no link:
-// the fleet.Link component owns encoding, deltas and liveness and hands this class decoded
-// messages; the team.Agent component adapts it to the graph.
+// One robot's inter-robot SLAM as one object: the five stages of stages.hpp chained in one
+// step, fed with its own local SLAM and whatever teammates sent (already decoded by the link).
+// The robot graph runs the same stages as separate components (team.ObjectMapper,
+// team.GraphMatcher, team.ScanExchange, team.ConsistencyFilter, team.TwoStepOptimizer);
+// this class gives tests and tools the whole chain without a runtime, and the same answers.
 //
-// Per Step(now_s):
-//  1. Own object map from the own keyframes at their current poses (incremental DBSCAN,
-//     ObjectMapper), published every object_map_period_s when it changed.
-//  2. For each teammate whose object map changed since it was last matched: object-graph
-//     matching (own map a, teammate map b). A match names the teammate objects; a scan
-//     request for the keyframes that observed them is sent (at most max_scans, keyframes
-//     already received not again).
-//  3. Scans received since the last step: each is registered (sliding window) against the own
-//     keyframes near it, seeded by the teammate's latest match transform; accepted
-//     registrations are candidate loops.
-//  4. Candidates enter the consistency filter (GCM by default, incremental, no time budget so
-//     the answer does not depend on load); accepted loops are sent to the teammate involved.
-//     Loops received from teammates (their registrations of our scans) are inverted and
-//     filtered too.
-//  5. Every optimize_period_s with new accepted loops: two-step PGO (own graph as a chain of
-//     the local-SLAM poses, teammates' trajectories from the poses they shared); the estimate
-//     holds every robot's trajectory in the own map frame.
-//
-// Serving requests: OnScanRequest queues replies for the own keyframes that observed the
-// named objects (most named objects first, newest first, none under min_points, at most
-// max_scans, each keyframe at most once per requester).
-//
-// Bounded memory per teammate: at most max_teammate_keyframes poses and max_teammate_scans
-// scans held (oldest scans dropped first); a restarted teammate (new incarnation) is forgotten
-// and re-learnt.
+// Per Step(now_s): ObjectMapperStage, GraphMatcherStage, ScanExchangeStage,
+// ConsistencyStage, OptimizerStage, in that order (stages.hpp says what each does).
+// A teammate's new incarnation (in any message header) or ForgetTeammate() resets what every
+// stage holds of it.
 #pragma once
 
 #include <cstdint>
@@ -36,13 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "draco/consistency/filter.hpp"
+#include "draco/agent/stages.hpp"
 #include "draco/msgs/fleet.hpp"
 #include "draco/msgs/map.hpp"
-#include "draco/objects/graph_matcher.hpp"
-#include "draco/objects/object_mapper.hpp"
-#include "draco/registration/registration.hpp"
-#include "draco/team/team_pgo.hpp"
+#include "draco/msgs/team.hpp"
 
 namespace draco::agent {
 
@@ -105,17 +82,7 @@ struct AgentEstimate {
 };
 
 // Work done in one step (the paper's Table II counts these).
-struct StepStats {
-  double time_s = 0.0;
-  int matches_tried = 0;
-  int matches_found = 0;
-  int requests_sent = 0;
-  int scans_registered = 0;
-  int candidates_added = 0;
-  int loops_accepted = 0;  // size of the consistent set after the step
-  bool optimized = false;
-  double wall_ms = 0.0;
-};
+using StepStats = msgs::TeamStepStats;
 
 class TeamAgent {
  public:
@@ -141,8 +108,22 @@ class TeamAgent {
 
   const AgentEstimate& estimate() const;
   const std::vector<StepStats>& step_stats() const;
-  const std::map<int, TeammateState>& teammates() const;
+  const std::map<int, TeammateState>& teammates() const;  // valid until the next call
   msgs::ObjectMap OwnObjects() const;
+
+  // The stages, for tests.
+  const ObjectMapperStage& mapper() const;
+  const GraphMatcherStage& matcher() const;
+  const ScanExchangeStage& exchange() const;
+  const ConsistencyStage& consistency() const;
+  const OptimizerStage& optimizer() const;
+
+  // The options of each stage as AgentOptions sets them.
+  static ObjectMapperStageOptions MapperOptions(const AgentOptions& o);
+  static GraphMatcherStageOptions MatcherOptions(const AgentOptions& o);
+  static ScanExchangeStageOptions ExchangeOptions(const AgentOptions& o);
+  static ConsistencyStageOptions ConsistencyOptions(const AgentOptions& o);
+  static OptimizerStageOptions OptimizerOptions(const AgentOptions& o);
 
  private:
   struct Impl;

@@ -121,9 +121,10 @@ struct LoopClosureMessage {
 };
 
 // ---------------------------------------------------------------------------------------
-// Between a robot's team agent and its link endpoint (graph ports, not link traffic).
+// LinkEndpoint's side of a tick (components/fleet link.hpp; not link traffic). The fleet.Link
+// component fills FleetOutgoing from its per-kind inputs and publishes FleetIncoming per kind.
 
-// What the agent wants sent (the link makes deltas, encodes, queues and counts).
+// What the robot wants sent (the link makes deltas, encodes, queues and counts).
 struct FleetOutgoing {
   double time_s = 0.0;
   bool has_object_map = false;

@@ -1,0 +1,339 @@
+// One robot's inter-robot SLAM (DRACo-SLAM2 sections III-A to III-F) as five stages, each a
+// plain class with its Options, fed step by step; the team.* components adapt one each
+// (docs/fleet.md) and TeamAgent (team_agent.hpp) chains all five in one object.
+//
+// Per agent step at now_s, in this order, each stage using what the previous one gave:
+//  1. ObjectMapperStage: own object map from the own keyframes at their current poses
+//     (incremental DBSCAN); published to teammates every object_map_period_s when it changed,
+//     with the own keyframe poses when they changed.
+//  2. GraphMatcherStage: for each teammate whose object map (or the own map) changed since it
+//     was last matched: object-graph matching; a match asks the teammate for the scans of the
+//     keyframes that observed the matched objects. Also keeps the reverse guess from the
+//     teammates' requests. Publishes the map-to-map guesses.
+//  3. ScanExchangeStage: serves the teammates' requests with own keyframe scans (most named
+//     objects first, newest first, none under min_points, at most max_scans, each keyframe at
+//     most once per requester); registers the scans received (sliding window) against the own
+//     keyframes near them, seeded by the own match: accepted registrations are candidates.
+//  4. ConsistencyStage: numbers the candidates, adds the loops teammates sent (their
+//     registrations of our scans, inverted), runs GCM (or PCM; incremental, no time budget so
+//     the answer does not depend on load); accepted own registrations are sent to the
+//     teammate involved.
+//  5. OptimizerStage: every optimize_period_s with new accepted loops, two-step PGO (own graph
+//     as a chain of the local-SLAM poses, teammates' trajectories from the poses they shared);
+//     the estimate holds every verified robot's trajectory in the own map frame.
+//
+// Teammates: every stage keeps what it needs per teammate and forgets it when the teammate
+// restarts (a new incarnation in a message header, or Forget()). Memory per teammate is
+// bounded (max_teammate_keyframes poses, max_teammate_scans scans, queued requests, loops).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <tuple>
+#include <vector>
+
+#include "draco/consistency/filter.hpp"
+#include "draco/msgs/fleet.hpp"
+#include "draco/msgs/map.hpp"
+#include "draco/msgs/team.hpp"
+#include "draco/objects/graph_matcher.hpp"
+#include "draco/objects/object_mapper.hpp"
+#include "draco/registration/registration.hpp"
+#include "draco/team/team_pgo.hpp"
+
+namespace draco::agent {
+
+// The own local SLAM as a stage sees it: keyframes (points, body frame) and current poses.
+class OwnKeyframes {
+ public:
+  struct Entry {
+    double time_s = 0.0;
+    bool has_pose = false;
+    msgs::Pose2 T_map_kf;
+    bool has_points = false;
+    std::vector<msgs::Point2> points_kf;
+  };
+  void OnKeyframe(const msgs::Keyframe& keyframe);
+  void OnTrajectory(const msgs::KeyframeTrajectory& trajectory);
+  const std::map<int, Entry>& entries() const { return own_; }
+  bool Known(int index) const;  // has a pose
+  // Poses by position 0..max index (gaps hold the previous pose), which are real keyframes.
+  void Chain(std::vector<msgs::Pose2>* poses, std::vector<bool>* real,
+             std::vector<double>* times) const;
+  std::uint64_t version() const { return version_; }              // any change
+  std::uint64_t poses_version() const { return poses_version_; }  // a change to publish
+
+ private:
+  std::map<int, Entry> own_;
+  std::uint64_t version_ = 0;
+  std::uint64_t poses_version_ = 0;
+};
+
+// Teammates' keyframe poses as they shared them (index == position; gaps not known).
+class TeammatePoses {
+ public:
+  struct Held {
+    std::vector<msgs::KeyframePoseEntry> keyframes;
+    std::vector<bool> known;
+    int ignored = 0;  // entries with a bad index or pose
+  };
+  explicit TeammatePoses(int max_keyframes = 20000) : max_keyframes_(max_keyframes) {}
+  void OnKeyframePoses(const msgs::KeyframePoses& poses);
+  bool Known(int robot, int index) const;
+  const Held* Find(int robot) const;
+  const std::map<int, Held>& all() const { return held_; }
+  void Forget(int robot) { held_.erase(robot); }
+
+ private:
+  int max_keyframes_;
+  std::map<int, Held> held_;
+};
+
+// Which incarnation of each teammate a stage holds. Note() on a message header: false for the
+// own id; a new incarnation of a known teammate calls forget(robot) first.
+class Roster {
+ public:
+  template <class Forget>
+  bool Note(int own_id, const msgs::FleetHeader& header, Forget&& forget) {
+    if (header.robot_id == own_id) return false;
+    const auto it = incarnations_.find(header.robot_id);
+    if (it != incarnations_.end() && it->second != header.incarnation) forget(header.robot_id);
+    incarnations_[header.robot_id] = header.incarnation;
+    return true;
+  }
+  void Erase(int robot) { incarnations_.erase(robot); }
+  const std::map<int, std::uint32_t>& all() const { return incarnations_; }
+
+ private:
+  std::map<int, std::uint32_t> incarnations_;
+};
+
+// ------------------------------------------------------------------------- 1. object map
+
+struct ObjectMapperStageOptions {
+  int robot_id = 0;
+  objects::ObjectMapperOptions mapper;
+  double object_map_period_s = 10.0;  // own object map published at most this often
+};
+
+class ObjectMapperStage {
+ public:
+  struct Output {
+    bool has_object_map = false;  // to send (full; the link makes the delta)
+    msgs::ObjectMap object_map;
+    bool has_poses = false;  // every own keyframe at its current pose, to send
+    std::vector<msgs::KeyframePoseEntry> poses;
+  };
+  explicit ObjectMapperStage(const ObjectMapperStageOptions& options);
+  ~ObjectMapperStage();
+  void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
+  void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
+  Output Step(double now_s, msgs::TeamStepStats* stats);
+  const msgs::ObjectMap& objects() const { return objects_; }  // after the last step
+  std::uint64_t version() const { return version_; }
+
+ private:
+  ObjectMapperStageOptions options_;
+  OwnKeyframes own_;
+  std::unique_ptr<objects::ObjectMapper> mapper_;
+  std::set<int> mapped_;  // keyframes given to the mapper
+  std::uint64_t seen_version_ = 0;
+  std::uint64_t seen_poses_version_ = 0;
+  std::uint64_t version_ = 0;
+  msgs::ObjectMap objects_;
+  msgs::ObjectMap last_published_;
+  bool published_once_ = false;
+  double last_publish_s_;
+};
+
+// ------------------------------------------------------------------------- 2. matching
+
+struct GraphMatcherStageOptions {
+  int robot_id = 0;
+  objects::MatcherOptions matcher;
+  double match_period_s = 10.0;  // a teammate map is matched at most this often
+  int max_scans_per_request = 20;
+};
+
+class GraphMatcherStage {
+ public:
+  struct Teammate {
+    msgs::ObjectMap objects;  // its map as the link holds it
+    bool map_changed = false;
+    std::uint32_t map_seq = 0;  // header.seq of the map held
+    double last_try_s;
+    std::uint64_t own_version_at_try = 0;
+  };
+  explicit GraphMatcherStage(const GraphMatcherStageOptions& options);
+  void OnTeammateObjectMap(const msgs::FleetHeader& header, const msgs::ObjectMap& map);
+  void OnScanRequest(const msgs::ScanRequest& request);  // the reverse guess
+  void Forget(int robot);
+  // Matches changed teammate maps against the own map; returns the scan requests to send.
+  std::vector<msgs::ScanRequest> Step(double now_s, const msgs::ObjectMap& own,
+                                      std::uint64_t own_version, msgs::TeamStepStats* stats);
+  const msgs::MapMatches& matches() const { return matches_; }  // guesses after the last step
+  const std::map<int, Teammate>& teammates() const { return mates_; }
+
+ private:
+  GraphMatcherStageOptions options_;
+  Roster roster_;
+  std::map<int, Teammate> mates_;
+  msgs::MapMatches matches_;
+};
+
+// ------------------------------------------------------------------------- 3. scans
+
+struct ScanExchangeStageOptions {
+  int robot_id = 0;
+  registration::SelectionOptions selection;        // max_requests, min_points, candidates
+  registration::RegistrationOptions registration;  // window 3, min_overlap 0.85
+  int max_scans_per_request = 20;
+  int max_teammate_keyframes = 20000;
+  int max_teammate_scans = 400;
+};
+
+class ScanExchangeStage {
+ public:
+  struct Output {
+    std::vector<msgs::ScanReply> replies;          // served requests
+    std::vector<msgs::InterRobotLoop> candidates;  // registered (ids not assigned)
+  };
+  struct Teammate {
+    std::deque<msgs::ScanReply> scans;  // held, oldest first
+    std::deque<bool> scan_registered;
+    std::set<int> sent_to;                      // own keyframes already sent to it
+    std::deque<msgs::ScanRequest> requests_in;  // served at the next step
+    int scans_received = 0;
+    int ignored = 0;  // replies with a bad keyframe or pose, scans of unshared keyframes
+  };
+  explicit ScanExchangeStage(const ScanExchangeStageOptions& options);
+  void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
+  void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
+  void OnKeyframePoses(const msgs::KeyframePoses& poses);
+  void OnScanRequest(const msgs::ScanRequest& request);
+  void OnScanReply(const msgs::ScanReply& reply);
+  // Keyframe pairs already held as candidates (the filter's set): never registered again.
+  void OnLoops(const std::vector<msgs::InterRobotLoop>& loops);
+  void Forget(int robot);
+  Output Step(double now_s, const msgs::ObjectMap& own_objects, const msgs::MapMatches& matches,
+              msgs::TeamStepStats* stats);
+  const std::map<int, Teammate>& teammates() const { return mates_; }
+
+ private:
+  void RebuildOwnScans();
+  void Serve(double now_s, const msgs::ObjectMap& own_objects, Output* out);
+  std::vector<int> Candidates(const msgs::ObjectMap& own_objects, const msgs::Pose2& T_own_teammate,
+                              const msgs::ScanReply& scan) const;
+  Teammate* Mate(const msgs::FleetHeader& header);
+
+  ScanExchangeStageOptions options_;
+  OwnKeyframes own_;
+  TeammatePoses poses_;
+  Roster roster_;
+  std::map<int, Teammate> mates_;
+  std::set<std::tuple<int, int, int>> keys_;  // teammate, own keyframe, teammate keyframe
+  std::uint64_t scans_version_ = ~std::uint64_t{0};
+  std::vector<registration::KeyframeScan> own_scans_;
+  std::vector<registration::KeyframeInfo> own_info_;
+  std::map<int, int> own_scan_position_;
+};
+
+// ------------------------------------------------------------------------- 4. GCM / PCM
+
+struct ConsistencyStageOptions {
+  int robot_id = 0;
+  consistency::FilterOptions filter;  // GCM; time_budget_ms forced to 0
+  // Teammate chain sigmas (as the two-step PGO's) and map-to-map guess sigmas in GCM.
+  double chain_sigma_xy_m = 0.1;
+  double chain_sigma_yaw_rad = 0.01;
+  double map_sigma_m = 1.0;
+  double map_sigma_rad = 0.05;
+  int max_teammate_keyframes = 20000;
+};
+
+class ConsistencyStage {
+ public:
+  struct Teammate {
+    std::vector<msgs::InterRobotLoop> loops_in;  // received, checked at the next step
+    int candidates = 0;
+    int accepted = 0;
+    int ignored = 0;  // received loops naming unknown keyframes, broken, or not ours
+  };
+  explicit ConsistencyStage(const ConsistencyStageOptions& options);
+  ~ConsistencyStage();
+  void OnTrajectory(const msgs::KeyframeTrajectory& trajectory);
+  void OnKeyframePoses(const msgs::KeyframePoses& poses);
+  void OnLoopClosures(const msgs::LoopClosureMessage& message);
+  void Forget(int robot);
+  // Numbers `registered`, adds the received loops, filters; returns the loop messages to send.
+  std::vector<msgs::LoopClosureMessage> Step(double now_s,
+                                             std::vector<msgs::InterRobotLoop> registered,
+                                             const msgs::MapMatches& matches,
+                                             msgs::TeamStepStats* stats);
+  // Every candidate, flags kLoopAccepted / kLoopRejected (ascending id).
+  const std::vector<msgs::InterRobotLoop>& candidates() const { return view_; }
+  std::vector<msgs::InterRobotLoop> accepted() const;
+  const std::map<int, Teammate>& teammates() const { return mates_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::vector<msgs::InterRobotLoop> view_;
+  std::map<int, Teammate> mates_;
+  friend struct Impl;
+};
+
+// ------------------------------------------------------------------------- 5. two-step PGO
+
+struct OptimizerStageOptions {
+  int robot_id = 0;
+  team::TwoStepOptions two_step;
+  double optimize_period_s = 10.0;
+  // Place teammates in the estimate by the map-to-map guess alone, before any loop with them
+  // is accepted (false: only teammates with accepted loops are placed).
+  bool place_unverified_teammates = false;
+  int max_teammate_keyframes = 20000;
+};
+
+struct TeamEstimate {
+  double time_s = 0.0;
+  // Every robot's keyframe trajectory in the own map frame (own id included); teammates
+  // without a map-to-map guess are absent.
+  std::map<int, std::vector<msgs::KeyframePose>> trajectories;
+  std::map<int, msgs::Pose2> T_own_teammate;  // current map-to-map estimates
+};
+
+class OptimizerStage {
+ public:
+  explicit OptimizerStage(const OptimizerStageOptions& options);
+  void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
+  void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
+  void OnKeyframePoses(const msgs::KeyframePoses& poses);
+  void Forget(int robot);
+  // candidates: the filter's set after this step (accepted ones flagged).
+  void Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
+            const msgs::MapMatches& matches, msgs::TeamStepStats* stats);
+  const TeamEstimate& estimate() const { return estimate_; }
+  const TeammatePoses& teammate_poses() const { return poses_; }
+
+ private:
+  OptimizerStageOptions options_;
+  OwnKeyframes own_;
+  TeammatePoses poses_;
+  Roster roster_;
+  std::uint64_t seen_own_version_ = ~std::uint64_t{0};
+  bool own_graph_changed_ = true;
+  std::map<int, bool> graph_changed_;  // per teammate, since the last PGO
+  std::map<int, std::uint32_t> match_counts_;
+  std::set<std::uint64_t> accepted_ids_;
+  bool accepted_changed_ = false;
+  double last_optimize_s_;
+  bool optimized_once_ = false;
+  TeamEstimate estimate_;
+};
+
+}  // namespace draco::agent

@@ -1,0 +1,960 @@
+// The five stages of a robot's inter-robot SLAM (stages.hpp, docs/fleet.md). Glue only:
+// ObjectMapper, MatchObjectMaps, SelectScanRequests, RegisterScan, ConsistencyFilter and
+// TwoStepPgo do the work.
+#include "draco/agent/stages.hpp"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "draco/consistency/pairwise.hpp"
+#include "draco/consistency/se2.hpp"
+
+namespace draco::agent {
+namespace {
+
+using msgs::Point2;
+using msgs::Pose2;
+namespace reg = registration;
+namespace cons = consistency;
+namespace pg = pose_graph;
+
+constexpr double kNever = -std::numeric_limits<double>::infinity();
+
+pg::Pose2 ToPg(const Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
+Pose2 FromPg(const pg::Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
+
+bool Finite(const Pose2& p) {
+  return std::isfinite(p.x_m) && std::isfinite(p.y_m) && std::isfinite(p.yaw_rad);
+}
+
+bool PositiveDefinite(const msgs::Covariance3& c) {
+  for (const double v : c) {
+    if (!std::isfinite(v)) return false;
+  }
+  const Eigen::Matrix3d m = cons::ToMatrix(c);
+  if ((m - m.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + m.cwiseAbs().maxCoeff())) {
+    return false;
+  }
+  const Eigen::LLT<Eigen::Matrix3d> llt(m);
+  return llt.info() == Eigen::Success;
+}
+
+Eigen::Matrix3d DiagonalCovariance(double sigma_xy, double sigma_yaw) {
+  return Eigen::Vector3d(sigma_xy * sigma_xy, sigma_xy * sigma_xy, sigma_yaw * sigma_yaw)
+      .asDiagonal();
+}
+
+pg::Matrix3 Information(double sigma_xy, double sigma_yaw) {
+  return pg::Diagonal3(1.0 / (sigma_xy * sigma_xy), 1.0 / (sigma_xy * sigma_xy),
+                       1.0 / (sigma_yaw * sigma_yaw));
+}
+
+// T with placed[i] ~ T * local[i] (least squares over the positions; SE(2) alignment).
+std::optional<Pose2> AlignSe2(const std::vector<Pose2>& local, const std::vector<Pose2>& placed) {
+  const std::size_t n = std::min(local.size(), placed.size());
+  if (n < 2) return std::nullopt;
+  double lx = 0, ly = 0, px = 0, py = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    lx += local[i].x_m, ly += local[i].y_m, px += placed[i].x_m, py += placed[i].y_m;
+  }
+  lx /= double(n), ly /= double(n), px /= double(n), py /= double(n);
+  double sc = 0, ss = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double ax = local[i].x_m - lx, ay = local[i].y_m - ly;
+    const double bx = placed[i].x_m - px, by = placed[i].y_m - py;
+    sc += ax * bx + ay * by;
+    ss += ax * by - ay * bx;
+  }
+  if (std::abs(sc) + std::abs(ss) < 1e-9) return std::nullopt;  // all at one point
+  const double yaw = std::atan2(ss, sc);
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  return Pose2{px - (c * lx - s * ly), py - (s * lx + c * ly), yaw};
+}
+
+using LoopKey = std::tuple<int, int, int>;  // teammate, own keyframe, teammate keyframe
+
+class WallTimer {
+ public:
+  explicit WallTimer(msgs::TeamStepStats* stats)
+      : stats_(stats), t0_(std::chrono::steady_clock::now()) {}
+  ~WallTimer() {
+    if (stats_ == nullptr) return;
+    stats_->wall_ms +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_).count();
+  }
+  WallTimer(const WallTimer&) = delete;
+  WallTimer& operator=(const WallTimer&) = delete;
+
+ private:
+  msgs::TeamStepStats* stats_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+}  // namespace
+
+// ------------------------------------------------------------------------ shared pieces
+
+void OwnKeyframes::OnKeyframe(const msgs::Keyframe& keyframe) {
+  if (keyframe.index < 0) return;
+  auto& kf = own_[keyframe.index];
+  if (kf.has_points) return;  // a keyframe's points never change
+  kf.time_s = keyframe.time_s;
+  kf.has_points = true;
+  kf.points_kf = keyframe.points_body;
+  ++version_;
+  if (kf.has_pose) ++poses_version_;
+}
+
+void OwnKeyframes::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
+  for (const auto& p : trajectory.keyframes) {
+    if (p.index < 0 || !Finite(p.T_map_kf)) continue;
+    auto& kf = own_[p.index];
+    if (kf.has_pose && kf.T_map_kf.x_m == p.T_map_kf.x_m && kf.T_map_kf.y_m == p.T_map_kf.y_m &&
+        kf.T_map_kf.yaw_rad == p.T_map_kf.yaw_rad) {
+      continue;
+    }
+    kf.has_pose = true;
+    kf.T_map_kf = p.T_map_kf;
+    if (!kf.has_points) kf.time_s = p.time_s;
+    ++version_;
+    ++poses_version_;
+  }
+}
+
+bool OwnKeyframes::Known(int index) const {
+  const auto it = own_.find(index);
+  return it != own_.end() && it->second.has_pose;
+}
+
+void OwnKeyframes::Chain(std::vector<Pose2>* poses, std::vector<bool>* real,
+                         std::vector<double>* times) const {
+  poses->clear();
+  real->clear();
+  if (times) times->clear();
+  int last = -1;
+  for (const auto& [index, kf] : own_) {
+    if (kf.has_pose) last = index;
+  }
+  if (last < 0) return;
+  poses->resize(static_cast<std::size_t>(last) + 1);
+  real->assign(poses->size(), false);
+  if (times) times->assign(poses->size(), 0.0);
+  std::optional<Pose2> first;
+  for (const auto& [index, kf] : own_) {
+    if (kf.has_pose && index >= 0 && index <= last) {
+      (*poses)[static_cast<std::size_t>(index)] = kf.T_map_kf;
+      (*real)[static_cast<std::size_t>(index)] = true;
+      if (times) (*times)[static_cast<std::size_t>(index)] = kf.time_s;
+      if (!first) first = kf.T_map_kf;
+    }
+  }
+  Pose2 prev = first.value_or(Pose2{});
+  for (std::size_t i = 0; i < poses->size(); ++i) {
+    if ((*real)[i]) {
+      prev = (*poses)[i];
+    } else {
+      (*poses)[i] = prev;
+    }
+  }
+}
+
+void TeammatePoses::OnKeyframePoses(const msgs::KeyframePoses& poses) {
+  Held& held = held_[poses.header.robot_id];
+  const int max_kf = std::max(0, max_keyframes_);
+  if (poses.full) {
+    held.keyframes.clear();
+    held.known.clear();
+  }
+  for (const auto& e : poses.poses) {
+    if (e.index < 0 || e.index >= max_kf || !Finite(e.T_map_kf)) {
+      ++held.ignored;
+      continue;
+    }
+    const auto i = static_cast<std::size_t>(e.index);
+    if (i >= held.keyframes.size()) {
+      // Gaps (keyframes not heard of yet) hold the previous pose and are not "known".
+      const Pose2 fill = held.keyframes.empty() ? e.T_map_kf : held.keyframes.back().T_map_kf;
+      while (held.keyframes.size() < i) {
+        msgs::KeyframePoseEntry g;
+        g.index = static_cast<int>(held.keyframes.size());
+        g.T_map_kf = fill;
+        held.keyframes.push_back(g);
+        held.known.push_back(false);
+      }
+      held.keyframes.push_back(e);
+      held.known.push_back(true);
+    } else {
+      held.keyframes[i] = e;
+      held.known[i] = true;
+    }
+  }
+}
+
+bool TeammatePoses::Known(int robot, int index) const {
+  const auto it = held_.find(robot);
+  if (it == held_.end() || index < 0) return false;
+  const auto& known = it->second.known;
+  return static_cast<std::size_t>(index) < known.size() && known[static_cast<std::size_t>(index)];
+}
+
+const TeammatePoses::Held* TeammatePoses::Find(int robot) const {
+  const auto it = held_.find(robot);
+  return it == held_.end() ? nullptr : &it->second;
+}
+
+// ------------------------------------------------------------------------ 1. object map
+
+ObjectMapperStage::ObjectMapperStage(const ObjectMapperStageOptions& options)
+    : options_(options),
+      mapper_(std::make_unique<objects::ObjectMapper>(options.mapper)),
+      last_publish_s_(kNever) {
+  objects_.robot_id = options.robot_id;
+}
+ObjectMapperStage::~ObjectMapperStage() = default;
+
+ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  if (st != nullptr) st->time_s = now_s;
+  Output out;
+  if (own_.version() != seen_version_) {
+    bool changed = false;
+    std::vector<objects::KeyframePose> poses;
+    for (const auto& [index, kf] : own_.entries()) {
+      if (mapped_.count(index) && kf.has_pose) poses.push_back({index, kf.T_map_kf});
+    }
+    changed = mapper_->UpdatePoses(poses) || changed;
+    for (const auto& [index, kf] : own_.entries()) {
+      if (!mapped_.count(index) && kf.has_pose && kf.has_points) {
+        mapper_->AddKeyframe(index, kf.T_map_kf, kf.points_kf);
+        mapped_.insert(index);
+        changed = true;
+      }
+    }
+    if (changed) {
+      objects_ = mapper_->Objects(options_.robot_id, now_s);
+      ++version_;
+    }
+    seen_version_ = own_.version();
+  }
+  objects_.robot_id = options_.robot_id;
+  if (now_s - last_publish_s_ >= options_.object_map_period_s && !objects_.objects.empty()) {
+    bool same = published_once_ && last_published_.objects.size() == objects_.objects.size();
+    for (std::size_t i = 0; same && i < objects_.objects.size(); ++i) {
+      const auto& a = objects_.objects[i];
+      const auto& b = last_published_.objects[i];
+      same = a.id == b.id && a.num_points == b.num_points && a.center.x_m == b.center.x_m &&
+             a.center.y_m == b.center.y_m && a.length_m == b.length_m &&
+             a.breadth_m == b.breadth_m && a.yaw_rad == b.yaw_rad && a.keyframes == b.keyframes;
+    }
+    if (!same) {
+      out.has_object_map = true;
+      out.object_map = objects_;
+      out.object_map.time_s = now_s;
+      last_published_ = objects_;
+      published_once_ = true;
+      last_publish_s_ = now_s;
+    }
+  }
+  if (own_.poses_version() != seen_poses_version_) {
+    for (const auto& [index, kf] : own_.entries()) {
+      if (!kf.has_pose) continue;
+      out.poses.push_back({index, kf.time_s, kf.T_map_kf, static_cast<int>(kf.points_kf.size())});
+    }
+    out.has_poses = !out.poses.empty();
+    seen_poses_version_ = own_.poses_version();
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------ 2. matching
+
+GraphMatcherStage::GraphMatcherStage(const GraphMatcherStageOptions& options) : options_(options) {}
+
+void GraphMatcherStage::Forget(int robot) {
+  roster_.Erase(robot);
+  mates_.erase(robot);
+  matches_.guesses.erase(robot);
+}
+
+void GraphMatcherStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
+                                            const msgs::ObjectMap& map) {
+  if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return;
+  auto [it, added] = mates_.try_emplace(header.robot_id);
+  if (added) it->second.last_try_s = kNever;
+  it->second.objects = map;
+  it->second.objects.robot_id = header.robot_id;
+  it->second.map_changed = true;
+  it->second.map_seq = header.seq;
+  matches_.guesses[header.robot_id].robot_id = header.robot_id;
+}
+
+void GraphMatcherStage::OnScanRequest(const msgs::ScanRequest& request) {
+  if (request.target_robot != options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, request.header, [this](int r) { Forget(r); })) return;
+  auto [it, added] = mates_.try_emplace(request.header.robot_id);
+  if (added) it->second.last_try_s = kNever;
+  auto& g = matches_.guesses[request.header.robot_id];
+  g.robot_id = request.header.robot_id;
+  if (Finite(request.T_requester_target)) {
+    g.has_reverse = true;
+    g.T_own_teammate_reverse = reg::Inverse(request.T_requester_target);
+  }
+}
+
+std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs::ObjectMap& own,
+                                                       std::uint64_t own_version,
+                                                       msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  std::vector<msgs::ScanRequest> out;
+  for (auto& [robot, mate] : mates_) {
+    const bool changed = mate.map_changed || mate.own_version_at_try != own_version;
+    if (!changed || mate.objects.objects.empty() || own.objects.empty()) continue;
+    if (now_s - mate.last_try_s < options_.match_period_s) continue;
+    mate.last_try_s = now_s;
+    mate.map_changed = false;
+    mate.own_version_at_try = own_version;
+    ++st->matches_tried;
+    auto match = objects::MatchObjectMaps(own, mate.objects, options_.matcher);
+    match.robot_a = options_.robot_id;
+    match.robot_b = robot;
+    if (match.status != msgs::MatchStatus::kMatched) continue;
+    ++st->matches_found;
+    auto& g = matches_.guesses[robot];
+    g.robot_id = robot;
+    g.matched = true;
+    g.match = match;
+    ++g.match_count;
+    // Request the scans of the matched objects, best fitting first.
+    std::vector<msgs::ObjectPair> pairs = match.pairs;
+    std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
+      return std::tie(a.residual_m, a.id_b) < std::tie(b.residual_m, b.id_b);
+    });
+    msgs::ScanRequest req;
+    req.header.robot_id = options_.robot_id;
+    req.header.time_s = now_s;
+    req.target_robot = robot;
+    req.object_map_version = mate.map_seq;
+    req.T_requester_target = match.T_a_b;
+    for (const auto& p : pairs) {
+      if (std::find(req.object_ids.begin(), req.object_ids.end(), p.id_b) == req.object_ids.end()) {
+        req.object_ids.push_back(p.id_b);
+      }
+    }
+    req.max_scans = options_.max_scans_per_request;
+    if (req.object_ids.empty() || req.max_scans <= 0) continue;
+    out.push_back(std::move(req));
+    ++st->requests_sent;
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------ 3. scans
+
+ScanExchangeStage::ScanExchangeStage(const ScanExchangeStageOptions& options)
+    : options_(options), poses_(options.max_teammate_keyframes) {}
+
+void ScanExchangeStage::Forget(int robot) {
+  roster_.Erase(robot);
+  mates_.erase(robot);
+  poses_.Forget(robot);
+  for (auto it = keys_.begin(); it != keys_.end();) {
+    it = std::get<0>(*it) == robot ? keys_.erase(it) : std::next(it);
+  }
+}
+
+ScanExchangeStage::Teammate* ScanExchangeStage::Mate(const msgs::FleetHeader& header) {
+  if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return nullptr;
+  return &mates_[header.robot_id];
+}
+
+void ScanExchangeStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
+  if (!Mate(poses.header)) return;
+  poses_.OnKeyframePoses(poses);
+}
+
+void ScanExchangeStage::OnScanRequest(const msgs::ScanRequest& request) {
+  if (request.target_robot != options_.robot_id) return;
+  Teammate* mate = Mate(request.header);
+  if (!mate) return;
+  mate->requests_in.push_back(request);
+  const std::size_t kMaxQueued = 16;  // a flooding teammate cannot grow the queue
+  while (mate->requests_in.size() > kMaxQueued) mate->requests_in.pop_front();
+}
+
+void ScanExchangeStage::OnScanReply(const msgs::ScanReply& reply) {
+  if (reply.requester_robot != options_.robot_id) return;
+  Teammate* mate = Mate(reply.header);
+  if (!mate) return;
+  if (reply.keyframe < 0 || reply.keyframe >= options_.max_teammate_keyframes ||
+      !Finite(reply.T_map_kf)) {
+    ++mate->ignored;
+    return;
+  }
+  ++mate->scans_received;
+  for (std::size_t i = 0; i < mate->scans.size(); ++i) {
+    if (mate->scans[i].keyframe == reply.keyframe) {  // a resend: the newer replaces it
+      mate->scans.erase(mate->scans.begin() + static_cast<long>(i));
+      mate->scan_registered.erase(mate->scan_registered.begin() + static_cast<long>(i));
+      break;
+    }
+  }
+  mate->scans.push_back(reply);
+  mate->scan_registered.push_back(false);
+  const auto max_scans = static_cast<std::size_t>(std::max(0, options_.max_teammate_scans));
+  while (mate->scans.size() > max_scans) {
+    mate->scans.pop_front();
+    mate->scan_registered.pop_front();
+  }
+}
+
+void ScanExchangeStage::OnLoops(const std::vector<msgs::InterRobotLoop>& loops) {
+  for (const auto& l : loops) keys_.insert({l.teammate_robot, l.own_keyframe, l.teammate_keyframe});
+}
+
+void ScanExchangeStage::RebuildOwnScans() {
+  if (scans_version_ == own_.version()) return;
+  own_scans_.clear();
+  own_info_.clear();
+  own_scan_position_.clear();
+  for (const auto& [index, kf] : own_.entries()) {
+    if (!kf.has_pose || !kf.has_points) continue;
+    own_scan_position_[index] = static_cast<int>(own_scans_.size());
+    own_scans_.push_back({index, kf.time_s, kf.T_map_kf, kf.points_kf});
+    own_info_.push_back({index, kf.T_map_kf, static_cast<int>(kf.points_kf.size())});
+  }
+  scans_version_ = own_.version();
+}
+
+// Serving: replies for the own keyframes that observed the named objects.
+void ScanExchangeStage::Serve(double now_s, const msgs::ObjectMap& own_objects, Output* out) {
+  for (auto& [robot, mate] : mates_) {
+    while (!mate.requests_in.empty()) {
+      const msgs::ScanRequest req = std::move(mate.requests_in.front());
+      mate.requests_in.pop_front();
+      const int max_scans = std::min(req.max_scans, options_.max_scans_per_request);
+      if (max_scans <= 0 || own_info_.empty()) continue;
+      // SelectScanRequests with the own map on both sides: named objects as the pairs,
+      // identity transform (every keyframe is its own candidate). It orders by named objects
+      // observed (most first), then newest first, skips min_points and `exclude`.
+      msgs::ObjectMatch m;
+      m.status = msgs::MatchStatus::kMatched;
+      for (const auto id : req.object_ids) m.pairs.push_back({id, id, 0.0});
+      reg::SelectionOptions s = options_.selection;
+      s.max_requests = max_scans;
+      s.max_candidates_per_request = 1;
+      s.candidate_radius_m = 1.0;
+      s.candidate_max_yaw_rad = 1.0;
+      const std::vector<int> exclude(mate.sent_to.begin(), mate.sent_to.end());
+      const auto picks =
+          reg::SelectScanRequests(own_objects, own_objects, m, own_info_, own_info_, s, exclude);
+      for (const auto& p : picks) {
+        const auto it = own_.entries().find(p.teammate_keyframe);
+        if (it == own_.entries().end() || !it->second.has_pose || !it->second.has_points) {
+          continue;
+        }
+        mate.sent_to.insert(p.teammate_keyframe);
+        msgs::ScanReply reply;
+        reply.header.robot_id = options_.robot_id;
+        reply.header.time_s = now_s;
+        reply.requester_robot = robot;
+        reply.keyframe = p.teammate_keyframe;
+        reply.keyframe_time_s = it->second.time_s;
+        reply.T_map_kf = it->second.T_map_kf;
+        reply.points_kf = it->second.points_kf;
+        out->replies.push_back(std::move(reply));
+      }
+    }
+  }
+}
+
+// Own keyframes near the teammate keyframe placed by T_own_teammate (the selection's
+// candidate rule: radius, heading, nearest first).
+std::vector<int> ScanExchangeStage::Candidates(const msgs::ObjectMap& own_objects,
+                                               const Pose2& T_own_teammate,
+                                               const msgs::ScanReply& scan) const {
+  msgs::ObjectMap fake;
+  fake.objects.resize(1);
+  fake.objects[0].keyframes = {scan.keyframe};
+  msgs::ObjectMatch m;
+  m.status = msgs::MatchStatus::kMatched;
+  m.T_a_b = T_own_teammate;
+  m.pairs = {{0, 0, 0.0}};
+  reg::SelectionOptions s = options_.selection;
+  s.max_requests = 1;
+  s.min_points = 0;
+  const std::vector<reg::KeyframeInfo> team{
+      {scan.keyframe, scan.T_map_kf, static_cast<int>(scan.points_kf.size())}};
+  const auto r = reg::SelectScanRequests(own_objects, fake, m, own_info_, team, s);
+  return r.empty() ? std::vector<int>{} : r.front().candidates;
+}
+
+ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::ObjectMap& own_objects,
+                                                  const msgs::MapMatches& matches,
+                                                  msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  Output out;
+  RebuildOwnScans();
+  Serve(now_s, own_objects, &out);
+  // Registration of the scans received since the last step.
+  for (auto& [robot, mate] : mates_) {
+    const auto g = matches.guesses.find(robot);
+    const auto guess = g != matches.guesses.end() && g->second.matched
+                           ? std::optional<Pose2>(g->second.match.T_a_b)
+                           : std::optional<Pose2>();
+    for (std::size_t i = 0; i < mate.scans.size(); ++i) {
+      if (mate.scan_registered[i]) continue;
+      const msgs::ScanReply& scan = mate.scans[i];
+      if (!poses_.Known(robot, scan.keyframe)) {
+        // The teammate never shared this keyframe's pose: not usable in its graph.
+        ++mate.ignored;
+        mate.scan_registered[i] = true;
+        continue;
+      }
+      if (!guess) continue;  // held until a match seeds it
+      mate.scan_registered[i] = true;
+      ++st->scans_registered;
+      for (const int own_index : Candidates(own_objects, *guess, scan)) {
+        const auto pos = own_scan_position_.find(own_index);
+        if (pos == own_scan_position_.end()) continue;
+        const int k = pos->second;
+        if (keys_.count({robot, own_index, scan.keyframe})) continue;
+        const Pose2 seed =
+            reg::SeedPose(own_scans_[static_cast<std::size_t>(k)].T_map_kf, *guess, scan.T_map_kf);
+        const auto r = reg::RegisterScan(own_scans_, k, scan.points_kf, seed, options_.registration,
+                                         options_.robot_id, robot, scan.keyframe);
+        if (!r.accepted() || !Finite(r.loop.T_ownkf_teammatekf) ||
+            !PositiveDefinite(r.loop.covariance)) {
+          continue;
+        }
+        msgs::InterRobotLoop loop = r.loop;
+        loop.id = 0;
+        loop.flags = 0;
+        keys_.insert({robot, own_index, scan.keyframe});
+        out.candidates.push_back(loop);
+      }
+    }
+    // Registered scans stay held (bounded) so a request never asks for them again.
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------ 4. GCM / PCM
+
+struct ConsistencyStage::Impl {
+  Impl(ConsistencyStage* o, const ConsistencyStageOptions& opt)
+      : owner(o), options(opt), poses(opt.max_teammate_keyframes) {
+    options.filter.time_budget_ms = 0.0;  // decisions independent of load
+    filter = std::make_unique<cons::ConsistencyFilter>(options.filter);
+  }
+
+  ConsistencyStage* owner;
+  ConsistencyStageOptions options;
+  OwnKeyframes own;
+  TeammatePoses poses;
+  Roster roster;
+  msgs::MapMatches matches;  // the latest guesses
+
+  std::vector<msgs::InterRobotLoop> candidates;  // ascending id
+  std::set<LoopKey> keys;
+  std::set<std::uint64_t> received_ids;  // candidates that came from a teammate
+  std::set<std::uint64_t> accepted_ids;
+  std::set<std::uint64_t> sent_ids;
+  std::uint64_t next_loop_id = 0;
+  std::unique_ptr<cons::ConsistencyFilter> filter;
+
+  int own_id() const { return options.robot_id; }
+
+  cons::ChainPoseSource BuildPoseSource() const {
+    cons::ChainPoseSource source;
+    std::vector<Pose2> chain;
+    std::vector<bool> real;
+    own.Chain(&chain, &real, nullptr);
+    const Eigen::Matrix3d own_step = DiagonalCovariance(0.1, 0.01);
+    for (const auto& p : chain) source.AddKeyframe(own_id(), p, own_step);
+    const Eigen::Matrix3d mate_step =
+        DiagonalCovariance(options.chain_sigma_xy_m, options.chain_sigma_yaw_rad);
+    std::set<int> robots;
+    for (const auto& [robot, held] : poses.all()) robots.insert(robot);
+    for (const auto& [robot, g] : matches.guesses) robots.insert(robot);
+    for (const int robot : robots) {
+      if (const auto* held = poses.Find(robot)) {
+        for (const auto& e : held->keyframes) source.AddKeyframe(robot, e.T_map_kf, mate_step);
+      }
+      if (const Pose2* g = msgs::GuessOf(matches, robot)) {
+        cons::UncertainPose m;
+        m.pose = *g;
+        m.covariance = DiagonalCovariance(options.map_sigma_m, options.map_sigma_rad);
+        source.SetMapTransform(own_id(), robot, m);
+      }
+    }
+    return source;
+  }
+
+  // Candidate and accepted lists and per-teammate counts.
+  void RefreshLoopViews() {
+    owner->view_.clear();
+    for (auto& [robot, s] : owner->mates_) s.candidates = s.accepted = 0;
+    for (auto l : candidates) {
+      const bool acc = accepted_ids.count(l.id) > 0;
+      l.flags &= ~(msgs::kLoopAccepted | msgs::kLoopRejected);
+      l.flags |= acc ? msgs::kLoopAccepted : msgs::kLoopRejected;
+      owner->view_.push_back(l);
+      const auto t = owner->mates_.find(l.teammate_robot);
+      if (t != owner->mates_.end()) {
+        ++t->second.candidates;
+        t->second.accepted += acc ? 1 : 0;
+      }
+    }
+  }
+
+  void Forget(int robot) {
+    roster.Erase(robot);
+    owner->mates_.erase(robot);
+    poses.Forget(robot);
+    matches.guesses.erase(robot);
+    // Its candidates leave the filter: rebuild it from the others.
+    std::vector<msgs::InterRobotLoop> keep;
+    bool had = false;
+    for (const auto& l : candidates) {
+      if (l.teammate_robot == robot) {
+        had = true;
+        keys.erase({l.teammate_robot, l.own_keyframe, l.teammate_keyframe});
+        received_ids.erase(l.id);
+        accepted_ids.erase(l.id);
+        sent_ids.erase(l.id);
+      } else {
+        keep.push_back(l);
+      }
+    }
+    if (!had) return;
+    candidates = std::move(keep);
+    filter = std::make_unique<cons::ConsistencyFilter>(options.filter);
+    accepted_ids.clear();
+    if (!candidates.empty()) {
+      const auto source = BuildPoseSource();
+      const auto d = filter->Add(candidates, source);
+      accepted_ids.insert(d.accepted.begin(), d.accepted.end());
+    }
+    RefreshLoopViews();
+  }
+
+  Teammate* Mate(const msgs::FleetHeader& header) {
+    if (!roster.Note(own_id(), header, [this](int r) { Forget(r); })) return nullptr;
+    return &owner->mates_[header.robot_id];
+  }
+
+  // Loops received from teammates, in the own convention.
+  std::vector<msgs::InterRobotLoop> TakeReceivedLoops() {
+    std::vector<msgs::InterRobotLoop> out;
+    for (auto& [robot, mate] : owner->mates_) {
+      for (const auto& in : mate.loops_in) {
+        // Theirs: own = teammate, teammate = us. Ours: swapped, inverted.
+        if (!own.Known(in.teammate_keyframe) || !poses.Known(robot, in.own_keyframe) ||
+            !Finite(in.T_ownkf_teammatekf) || !PositiveDefinite(in.covariance)) {
+          ++mate.ignored;
+          continue;
+        }
+        const LoopKey key{robot, in.teammate_keyframe, in.own_keyframe};
+        if (keys.count(key)) continue;  // the same pair registered here or received before
+        cons::UncertainPose z;
+        z.pose = in.T_ownkf_teammatekf;
+        z.covariance = cons::ToMatrix(in.covariance);
+        const cons::UncertainPose inv = cons::Inverse(z);
+        msgs::InterRobotLoop loop;
+        loop.id = next_loop_id++;
+        loop.own_robot = own_id();
+        loop.own_keyframe = in.teammate_keyframe;
+        loop.teammate_robot = robot;
+        loop.teammate_keyframe = in.own_keyframe;
+        loop.T_ownkf_teammatekf = inv.pose;
+        const Eigen::Matrix3d c = 0.5 * (inv.covariance + inv.covariance.transpose());
+        loop.covariance = cons::FromMatrix(c);
+        loop.overlap = in.overlap;
+        loop.flags = 0;
+        if (!PositiveDefinite(loop.covariance)) {
+          ++mate.ignored;
+          continue;
+        }
+        keys.insert(key);
+        received_ids.insert(loop.id);
+        out.push_back(loop);
+      }
+      mate.loops_in.clear();
+    }
+    return out;
+  }
+};
+
+ConsistencyStage::ConsistencyStage(const ConsistencyStageOptions& options)
+    : impl_(std::make_unique<Impl>(this, options)) {}
+ConsistencyStage::~ConsistencyStage() = default;
+
+void ConsistencyStage::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
+  impl_->own.OnTrajectory(trajectory);
+}
+
+void ConsistencyStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
+  if (!impl_->Mate(poses.header)) return;
+  impl_->poses.OnKeyframePoses(poses);
+}
+
+void ConsistencyStage::OnLoopClosures(const msgs::LoopClosureMessage& message) {
+  if (message.target_robot != impl_->own_id()) return;
+  Teammate* mate = impl_->Mate(message.header);
+  if (!mate) return;
+  for (const auto& l : message.loops) {
+    if (l.own_robot != message.header.robot_id || l.teammate_robot != impl_->own_id()) {
+      ++mate->ignored;
+      continue;
+    }
+    mate->loops_in.push_back(l);
+  }
+  const std::size_t kMaxQueued = 4096;
+  if (mate->loops_in.size() > kMaxQueued) {
+    mate->ignored += static_cast<int>(mate->loops_in.size() - kMaxQueued);
+    mate->loops_in.resize(kMaxQueued);
+  }
+}
+
+void ConsistencyStage::Forget(int robot) {
+  if (robot == impl_->own_id()) return;
+  impl_->Forget(robot);
+}
+
+std::vector<msgs::InterRobotLoop> ConsistencyStage::accepted() const {
+  std::vector<msgs::InterRobotLoop> out;
+  for (const auto& l : view_) {
+    if (l.flags & msgs::kLoopAccepted) out.push_back(l);
+  }
+  return out;
+}
+
+std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
+    double now_s, std::vector<msgs::InterRobotLoop> fresh, const msgs::MapMatches& matches,
+    msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  Impl& a = *impl_;
+  a.matches = matches;
+  for (auto& l : fresh) {
+    l.id = a.next_loop_id++;
+    a.keys.insert({l.teammate_robot, l.own_keyframe, l.teammate_keyframe});
+  }
+  auto received = a.TakeReceivedLoops();
+  fresh.insert(fresh.end(), received.begin(), received.end());
+  st->candidates_added = static_cast<int>(fresh.size());
+  if (!fresh.empty()) {
+    const auto source = a.BuildPoseSource();
+    const auto d = a.filter->Add(fresh, source);
+    a.candidates.insert(a.candidates.end(), fresh.begin(), fresh.end());
+    a.accepted_ids = std::set<std::uint64_t>(d.accepted.begin(), d.accepted.end());
+    a.RefreshLoopViews();
+  }
+  std::map<int, msgs::LoopClosureMessage> messages;
+  for (const auto& l : a.candidates) {
+    if (!a.accepted_ids.count(l.id) || a.received_ids.count(l.id) || a.sent_ids.count(l.id)) {
+      continue;
+    }
+    a.sent_ids.insert(l.id);
+    auto& m = messages[l.teammate_robot];
+    m.header.robot_id = a.own_id();
+    m.header.time_s = now_s;
+    m.target_robot = l.teammate_robot;
+    auto sent = l;
+    sent.flags = msgs::kLoopAccepted;
+    m.loops.push_back(sent);
+  }
+  std::vector<msgs::LoopClosureMessage> out;
+  for (auto& [robot, m] : messages) out.push_back(std::move(m));
+  st->loops_accepted = static_cast<int>(a.accepted_ids.size());
+  return out;
+}
+
+// ------------------------------------------------------------------------ 5. two-step PGO
+
+OptimizerStage::OptimizerStage(const OptimizerStageOptions& options)
+    : options_(options), poses_(options.max_teammate_keyframes), last_optimize_s_(kNever) {
+  options_.two_step.solver.num_threads = 1;  // bit-identical solves
+}
+
+void OptimizerStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
+  if (!roster_.Note(options_.robot_id, poses.header, [this](int r) { Forget(r); })) return;
+  poses_.OnKeyframePoses(poses);
+  graph_changed_[poses.header.robot_id] = true;
+}
+
+void OptimizerStage::Forget(int robot) {
+  if (robot == options_.robot_id) return;
+  roster_.Erase(robot);
+  poses_.Forget(robot);
+  graph_changed_.erase(robot);
+  match_counts_.erase(robot);
+  estimate_.trajectories.erase(robot);
+  estimate_.T_own_teammate.erase(robot);
+  own_graph_changed_ = true;  // the estimate is recomputed without it
+}
+
+void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
+                          const msgs::MapMatches& matches, msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  const int own_id = options_.robot_id;
+  if (own_.version() != seen_own_version_) {
+    own_graph_changed_ = true;
+    seen_own_version_ = own_.version();
+  }
+  // Teammates heard of by any stage (a new one changes the graphs), new matches.
+  for (const auto& [robot, g] : matches.guesses) {
+    if (robot == own_id) continue;
+    if (!graph_changed_.count(robot)) graph_changed_[robot] = true;
+    auto& count = match_counts_[robot];
+    if (g.matched && g.match_count != count) {
+      count = g.match_count;
+      estimate_.T_own_teammate[robot] = g.match.T_a_b;
+      graph_changed_[robot] = true;
+    }
+  }
+  std::set<std::uint64_t> accepted;
+  for (const auto& l : candidates) {
+    if (l.flags & msgs::kLoopAccepted) accepted.insert(l.id);
+  }
+  if (accepted != accepted_ids_) accepted_changed_ = true;
+  accepted_ids_ = std::move(accepted);
+  const auto guess = [&](int robot) -> std::optional<Pose2> {
+    const Pose2* g = msgs::GuessOf(matches, robot);
+    return g ? std::optional<Pose2>(*g) : std::nullopt;
+  };
+
+  bool graphs_changed = own_graph_changed_;
+  for (const auto& [robot, changed] : graph_changed_) graphs_changed = graphs_changed || changed;
+  std::vector<Pose2> own_poses;
+  std::vector<bool> own_real;
+  std::vector<double> own_times;
+  own_.Chain(&own_poses, &own_real, &own_times);
+  if (own_poses.empty()) return;
+
+  team::TeamProblem problem;
+  team::RobotGraph own_graph;
+  const pg::Matrix3 own_chain_info = Information(0.1, 0.01);
+  for (std::size_t k = 0; k < own_poses.size(); ++k) {
+    own_graph.poses.push_back(ToPg(own_poses[k]));
+    if (k > 0) {
+      team::ChainFactor f;
+      f.from = static_cast<int>(k - 1);
+      f.to = static_cast<int>(k);
+      f.T_from_to = ToPg(reg::Between(own_poses[k - 1], own_poses[k]));
+      f.information = own_chain_info;
+      own_graph.factors.push_back(f);
+    }
+  }
+  problem.robots[own_id] = std::move(own_graph);
+  const pg::Matrix3 chain_info =
+      Information(options_.two_step.chain_sigma_xy_m, options_.two_step.chain_sigma_yaw_rad);
+  for (const auto& [robot, held] : poses_.all()) {
+    const auto g = guess(robot);
+    if (!g || held.keyframes.empty()) continue;
+    team::RobotGraph rg;
+    for (std::size_t k = 0; k < held.keyframes.size(); ++k) {
+      rg.poses.push_back(ToPg(held.keyframes[k].T_map_kf));
+      if (k > 0) {
+        team::ChainFactor f;
+        f.from = static_cast<int>(k - 1);
+        f.to = static_cast<int>(k);
+        f.T_from_to =
+            ToPg(reg::Between(held.keyframes[k - 1].T_map_kf, held.keyframes[k].T_map_kf));
+        f.information = chain_info;
+        rg.factors.push_back(f);
+      }
+    }
+    problem.robots[robot] = std::move(rg);
+    problem.maps[{own_id, robot}] = ToPg(*g);
+  }
+  for (const auto& l : candidates) {
+    if (!(l.flags & msgs::kLoopAccepted)) continue;
+    const auto r = problem.robots.find(l.teammate_robot);
+    if (r == problem.robots.end()) continue;
+    if (l.own_keyframe < 0 || l.own_keyframe >= static_cast<int>(own_poses.size()) ||
+        !own_real[static_cast<std::size_t>(l.own_keyframe)] ||
+        !poses_.Known(l.teammate_robot, l.teammate_keyframe)) {
+      continue;
+    }
+    auto loop = l;
+    loop.flags = 0;
+    problem.loops.push_back(loop);
+  }
+
+  const bool have_loops = !problem.loops.empty();
+  const bool due = now_s - last_optimize_s_ >= options_.optimize_period_s;
+  const bool pgo = have_loops && due && (accepted_changed_ || graphs_changed);
+  if (!pgo) {
+    if (have_loops && optimized_once_) return;  // the last PGO stands until the next one
+    if (!graphs_changed && !estimate_.trajectories.empty()) return;  // nothing new to place
+  }
+  std::map<int, std::vector<Pose2>> placed;
+  bool solved = false;
+  if (pgo) {
+    try {
+      const auto e = team::TwoStepPgo(problem, own_id, options_.two_step);
+      for (const auto& [robot, poses] : e.trajectories) {
+        auto& v = placed[robot];
+        for (const auto& p : poses) v.push_back(FromPg(p));
+      }
+      solved = true;
+    } catch (const std::exception&) {
+      placed.clear();  // the guess placement below
+    }
+    last_optimize_s_ = now_s;
+    accepted_changed_ = false;
+    st->optimized = solved;
+    optimized_once_ = optimized_once_ || solved;
+  }
+  own_graph_changed_ = false;
+  for (auto& [robot, changed] : graph_changed_) changed = false;
+  if (!solved) {  // every robot through its map-to-map guess
+    placed[own_id] = own_poses;
+    for (const auto& [robot, rg] : problem.robots) {
+      if (robot == own_id) continue;
+      const Pose2 T = FromPg(problem.maps.at({own_id, robot}));
+      auto& v = placed[robot];
+      for (const auto& p : rg.poses) v.push_back(reg::Compose(T, FromPg(p)));
+    }
+  }
+  if (!options_.place_unverified_teammates) {
+    // A teammate enters the estimate once the consistency filter accepted loops with it: a
+    // map-to-map guess alone (object-graph matching) can be wrong where structures repeat.
+    std::set<int> verified;
+    for (const auto& l : problem.loops) verified.insert(l.teammate_robot);
+    for (auto it = placed.begin(); it != placed.end();) {
+      it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
+    }
+  }
+  TeamEstimate next;
+  next.time_s = now_s;
+  // Trajectories with real keyframes only; map-to-map estimates.
+  for (const auto& [robot, poses] : placed) {
+    auto& traj = next.trajectories[robot];
+    if (robot == own_id) {
+      for (std::size_t k = 0; k < poses.size() && k < own_real.size(); ++k) {
+        if (own_real[k]) traj.push_back({static_cast<int>(k), own_times[k], poses[k]});
+      }
+      continue;
+    }
+    const auto& held = *poses_.Find(robot);
+    std::vector<Pose2> local, moved;
+    for (std::size_t k = 0; k < poses.size() && k < held.keyframes.size(); ++k) {
+      if (!held.known[k]) continue;
+      traj.push_back({static_cast<int>(k), held.keyframes[k].time_s, poses[k]});
+      local.push_back(held.keyframes[k].T_map_kf);
+      moved.push_back(poses[k]);
+    }
+    const auto g = guess(robot);
+    const auto aligned = solved ? AlignSe2(local, moved) : std::nullopt;
+    next.T_own_teammate[robot] = aligned ? *aligned : g.value_or(Pose2{});
+  }
+  estimate_ = std::move(next);
+}
+
+}  // namespace draco::agent

@@ -1,0 +1,532 @@
+// Runtime adapters of the five team stages (stages.hpp), one robot's inter-robot SLAM between
+// its local SLAM and its fleet link (config/graphs/robot.yaml, docs/fleet.md):
+//
+//   team.ObjectMapper -objects-> team.GraphMatcher -matches-> team.ScanExchange
+//     -candidates-> team.ConsistencyFilter -loops-> team.TwoStepOptimizer
+//
+// team.ObjectMapper owns the step timer (1 s of mission time); every other stage runs its step
+// when the previous one publishes, at the same stamp, so one step runs the five stages in
+// order, as TeamAgent does. What a stage absorbs before its step (own local SLAM, what the link
+// delivered, the previous step's loops) is applied in the order one component would have seen
+// it, up to but not including the step's stamp: the outputs do not depend on the order the
+// executor runs components in within a stamp.
+//
+// Files on Stop: <prefix>objects.csv (mapper), <prefix>inter_loops.csv (filter),
+// <prefix>team.<robot>.tum and <prefix>agent_steps.csv (optimizer).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "draco/agent/stages.hpp"
+#include "draco/graph/component.hpp"
+#include "draco/graph/executor.hpp"
+#include "draco/msgs/fleet.hpp"
+#include "draco/msgs/map.hpp"
+#include "draco/msgs/team.hpp"
+
+namespace draco::agent {
+namespace {
+
+using graph::Context;
+using graph::Spec;
+using graph::Status;
+
+// Absorption order at one stamp: the previous step's chain feedback, the own local SLAM
+// (keyframes, then trajectories), then the link's messages (restarts, object maps, poses,
+// requests, replies, loops), as the link hands them over in one tick.
+enum Rank : int {
+  kFeedback = 0,
+  kOwnKeyframe,
+  kOwnTrajectory,
+  kEvent,
+  kObjectMap,
+  kPoses,
+  kRequest,
+  kReply,
+  kLoops,
+};
+
+class Absorber {
+ public:
+  template <class T, class F>
+  void Add(graph::In<T>& in, Rank rank, F apply) {
+    for (auto& m : in.TakeAll()) {
+      pending_.push_back({m.stamp, rank, seq_++, [m, apply] { apply(*m.value); }});
+    }
+  }
+  // Applies what is stamped before `now` in order; the rest waits for the next step.
+  void ApplyBefore(graph::Time now) {
+    std::stable_sort(pending_.begin(), pending_.end(), [](const Item& a, const Item& b) {
+      return std::tie(a.stamp.ns, a.rank, a.seq) < std::tie(b.stamp.ns, b.rank, b.seq);
+    });
+    std::size_t n = 0;
+    while (n < pending_.size() && pending_[n].stamp < now) pending_[n++].apply();
+    pending_.erase(pending_.begin(), pending_.begin() + static_cast<long>(n));
+  }
+
+ private:
+  struct Item {
+    graph::Time stamp;
+    int rank = 0;
+    std::uint64_t seq = 0;
+    std::function<void()> apply;
+  };
+  std::vector<Item> pending_;
+  std::uint64_t seq_ = 0;
+};
+
+constexpr std::size_t kLinkDepth = 4096;
+
+graph::InputOptions Absorbed(const char* doc, std::size_t depth = 1024) {
+  return {.trigger = false, .depth = depth, .doc = doc};
+}
+graph::InputOptions FromLink(const char* doc) {
+  return {.trigger = false, .depth = kLinkDepth, .delayed = true, .doc = doc};
+}
+
+void RobotIdParam(Spec& spec, int* id) {
+  spec.Param("robot_id", id, {.doc = "own robot id", .min = 0, .max = 63});
+}
+
+Status WriteFiles(const Context& ctx, const std::string& prefix,
+                  const std::vector<std::pair<std::string, std::string>>& files) {
+  if (ctx.output_dir().empty()) return Status::Ok();
+  const auto dir = std::filesystem::path(ctx.output_dir());
+  for (const auto& [name, text] : files) {
+    const auto path = (dir / (prefix + name)).string();
+    if (!graph::WriteFileAtomically(path, text)) return Status::Fatal("cannot write " + path);
+  }
+  return Status::Ok();
+}
+
+// ------------------------------------------------------------------------ team.ObjectMapper
+
+class ObjectMapperComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Own object map (incremental DBSCAN over the own keyframes at their current poses) "
+        "every agent step; starts the team pipeline's step. Sends the map to teammates at "
+        "most every object_map_period_s when it changed, and the own keyframe poses when they "
+        "changed. Writes <prefix>objects.csv.");
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", Absorbed("own keyframes"));
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>("trajectory",
+                                                       Absorbed("own optimised keyframes", 256));
+    objects_ = spec.Output<msgs::OwnObjectMap>("objects", "own object map, every step");
+    object_map_ = spec.Output<msgs::ObjectMap>("object_map", "own object map to send (full)");
+    poses_ = spec.Output<msgs::KeyframePoses>("keyframe_poses",
+                                              "every own keyframe pose to send, when changed");
+    spec.Timer("step", 1.0, "one agent step every second of mission time");
+    RobotIdParam(spec, &o_.robot_id);
+    spec.Param("object_map_period_s", &o_.object_map_period_s,
+               {.doc = "own object map sent at most this often", .unit = "s", .min = 0.0});
+    spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
+  }
+  Status Start(Context&) override {
+    stage_ = std::make_unique<ObjectMapperStage>(o_);
+    return Status::Ok();
+  }
+  Status Process(Context& ctx) override {
+    in_.Add(keyframe_, kOwnKeyframe, [this](const auto& k) { stage_->OnKeyframe(k); });
+    in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    if (ctx.reason() != graph::Reason::kTimer) return Status::Ok();
+    in_.ApplyBefore(ctx.Now());
+    msgs::OwnObjectMap step;
+    auto out = stage_->Step(ctx.Now().Seconds(), &step.step);
+    if (out.has_object_map) object_map_.Publish(std::move(out.object_map));
+    if (out.has_poses) {
+      msgs::KeyframePoses p;
+      p.header.robot_id = o_.robot_id;
+      p.header.time_s = ctx.Now().Seconds();
+      p.poses = std::move(out.poses);
+      poses_.Publish(std::move(p));
+    }
+    step.version = stage_->version();
+    step.map = stage_->objects();
+    objects_.Publish(std::move(step));
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (!stage_) return Status::Ok();
+    std::string objects = "id,center_x_m,center_y_m,length_m,breadth_m,yaw_rad,num_points\n";
+    for (const auto& ob : stage_->objects().objects) {
+      char line[200];
+      std::snprintf(line, sizeof line, "%u,%.3f,%.3f,%.3f,%.3f,%.4f,%d\n", ob.id, ob.center.x_m,
+                    ob.center.y_m, ob.length_m, ob.breadth_m, ob.yaw_rad, ob.num_points);
+      objects += line;
+    }
+    return WriteFiles(ctx, prefix_, {{"objects.csv", objects}});
+  }
+
+ private:
+  ObjectMapperStageOptions o_;
+  std::string prefix_;
+  std::unique_ptr<ObjectMapperStage> stage_;
+  Absorber in_;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
+  graph::Out<msgs::OwnObjectMap> objects_;
+  graph::Out<msgs::ObjectMap> object_map_;
+  graph::Out<msgs::KeyframePoses> poses_;
+};
+
+// ------------------------------------------------------------------------ team.GraphMatcher
+
+class GraphMatcherComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Object-graph matching of the own map against each teammate's (when either changed, "
+        "at most every match_period_s); a match asks the teammate for the scans of the "
+        "keyframes that observed the matched objects. Publishes the map-to-map guesses every "
+        "step.");
+    objects_ = spec.Input<msgs::OwnObjectMap>(
+        "objects", {.depth = 64, .doc = "own object map from team.ObjectMapper (runs the step)"});
+    maps_ = spec.Input<msgs::TeammateObjectMap>("teammate_object_maps",
+                                                FromLink("teammates' object maps (link)"));
+    requests_ = spec.Input<msgs::ScanRequest>(
+        "teammate_scan_requests", FromLink("teammates' scan requests: the reverse guess"));
+    events_ =
+        spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    matches_ = spec.Output<msgs::MapMatches>("matches", "map-to-map guesses, every step");
+    requests_out_ = spec.Output<msgs::ScanRequest>("scan_requests", "scan requests to send");
+    RobotIdParam(spec, &o_.robot_id);
+    spec.Param("match_period_s", &o_.match_period_s,
+               {.doc = "a teammate map matched at most this often", .unit = "s", .min = 0.0});
+    spec.Param("max_scans_per_request", &o_.max_scans_per_request,
+               {.doc = "scans asked for per request", .min = 0, .max = 256});
+  }
+  Status Start(Context&) override {
+    stage_ = std::make_unique<GraphMatcherStage>(o_);
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
+      if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
+    });
+    in_.Add(maps_, kObjectMap, [this](const msgs::TeammateObjectMap& m) {
+      stage_->OnTeammateObjectMap(m.header, m.map);
+    });
+    in_.Add(requests_, kRequest, [this](const auto& r) { stage_->OnScanRequest(r); });
+    for (const auto& own : objects_.TakeAll()) {
+      in_.ApplyBefore(own.stamp);
+      msgs::MapMatches out;
+      out.step = own->step;
+      for (auto& r : stage_->Step(own.stamp.Seconds(), own->map, own->version, &out.step)) {
+        requests_out_.PublishAt(own.stamp, std::move(r));
+      }
+      out.guesses = stage_->matches().guesses;
+      matches_.PublishAt(own.stamp, std::move(out));
+    }
+    return Status::Ok();
+  }
+
+ private:
+  GraphMatcherStageOptions o_;
+  std::unique_ptr<GraphMatcherStage> stage_;
+  Absorber in_;
+  graph::In<msgs::OwnObjectMap> objects_;
+  graph::In<msgs::TeammateObjectMap> maps_;
+  graph::In<msgs::ScanRequest> requests_;
+  graph::In<msgs::TeammateEvent> events_;
+  graph::Out<msgs::MapMatches> matches_;
+  graph::Out<msgs::ScanRequest> requests_out_;
+};
+
+// ------------------------------------------------------------------------ team.ScanExchange
+
+class ScanExchangeComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Serves teammates' scan requests with own keyframe scans (most named objects first, "
+        "newest first, each keyframe once per requester) and registers the scans received "
+        "(sliding window) against the own keyframes near them, seeded by the own match: "
+        "accepted registrations are candidate loops.");
+    matches_ = spec.Input<msgs::MapMatches>(
+        "matches",
+        {.depth = 64, .doc = "map-to-map guesses from team.GraphMatcher (runs the step)"});
+    objects_ =
+        spec.Input<msgs::OwnObjectMap>("objects", {.trigger = false,
+                                                   .delivery = graph::Delivery::kLatest,
+                                                   .doc = "own object map from team.ObjectMapper"});
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", Absorbed("own keyframes"));
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>("trajectory",
+                                                       Absorbed("own optimised keyframes", 256));
+    poses_ = spec.Input<msgs::KeyframePoses>("teammate_keyframe_poses",
+                                             FromLink("teammates' keyframe poses (link)"));
+    requests_ = spec.Input<msgs::ScanRequest>("teammate_scan_requests",
+                                              FromLink("teammates' scan requests (link)"));
+    replies_ = spec.Input<msgs::ScanReply>("teammate_scan_replies",
+                                           FromLink("teammates' scans for our requests (link)"));
+    events_ =
+        spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    loops_ = spec.Input<msgs::TeamLoops>(
+        "loops", {.trigger = false,
+                  .depth = 64,
+                  .delayed = true,
+                  .doc = "loops held by team.ConsistencyFilter (pairs never registered again)"});
+    candidates_ =
+        spec.Output<msgs::CandidateLoops>("candidates", "new candidate loops, every step");
+    replies_out_ = spec.Output<msgs::ScanReply>("scan_replies", "scans to send");
+    RobotIdParam(spec, &o_.robot_id);
+    spec.Param("window", &o_.registration.window,
+               {.doc = "registration window (keyframes each side)", .min = 0, .max = 20});
+    spec.Param("min_overlap", &o_.registration.min_overlap,
+               {.doc = "registration acceptance (overlap ratio)", .min = 0.0, .max = 1.0});
+    spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
+               {.doc = "own keyframes this close to a placed teammate scan are candidates",
+                .unit = "m",
+                .min = 0.0});
+    spec.Param("candidate_max_yaw_rad", &o_.selection.candidate_max_yaw_rad,
+               {.doc = "... and within this heading difference", .unit = "rad", .min = 0.0});
+    spec.Param("max_scans_per_request", &o_.max_scans_per_request,
+               {.doc = "scans served per request at most", .min = 0, .max = 256});
+  }
+  Status Start(Context&) override {
+    stage_ = std::make_unique<ScanExchangeStage>(o_);
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    in_.Add(loops_, kFeedback, [this](const msgs::TeamLoops& l) { stage_->OnLoops(l.candidates); });
+    in_.Add(keyframe_, kOwnKeyframe, [this](const auto& k) { stage_->OnKeyframe(k); });
+    in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
+      if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
+    });
+    in_.Add(poses_, kPoses, [this](const auto& p) { stage_->OnKeyframePoses(p); });
+    in_.Add(requests_, kRequest, [this](const auto& r) { stage_->OnScanRequest(r); });
+    in_.Add(replies_, kReply, [this](const auto& r) { stage_->OnScanReply(r); });
+    if (auto o = objects_.Take()) own_ = o->value;
+    for (const auto& m : matches_.TakeAll()) {
+      in_.ApplyBefore(m.stamp);
+      static const msgs::ObjectMap kEmpty;
+      msgs::CandidateLoops out;
+      out.matches = *m;
+      auto r = stage_->Step(m.stamp.Seconds(), own_ ? own_->map : kEmpty, *m, &out.matches.step);
+      for (auto& reply : r.replies) replies_out_.PublishAt(m.stamp, std::move(reply));
+      out.loops = std::move(r.candidates);
+      candidates_.PublishAt(m.stamp, std::move(out));
+    }
+    return Status::Ok();
+  }
+
+ private:
+  ScanExchangeStageOptions o_;
+  std::unique_ptr<ScanExchangeStage> stage_;
+  Absorber in_;
+  std::shared_ptr<const msgs::OwnObjectMap> own_;
+  graph::In<msgs::MapMatches> matches_;
+  graph::In<msgs::OwnObjectMap> objects_;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
+  graph::In<msgs::KeyframePoses> poses_;
+  graph::In<msgs::ScanRequest> requests_;
+  graph::In<msgs::ScanReply> replies_;
+  graph::In<msgs::TeammateEvent> events_;
+  graph::In<msgs::TeamLoops> loops_;
+  graph::Out<msgs::CandidateLoops> candidates_;
+  graph::Out<msgs::ScanReply> replies_out_;
+};
+
+// ------------------------------------------------------------------------ team.ConsistencyFilter
+
+class ConsistencyFilterComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Numbers the candidate loops, adds the loops teammates sent (inverted), and keeps the "
+        "largest consistent set (GCM or PCM, incremental, no time budget); accepted own "
+        "registrations are sent to the teammate involved. Writes <prefix>inter_loops.csv.");
+    candidates_ = spec.Input<msgs::CandidateLoops>(
+        "candidates",
+        {.depth = 64, .doc = "new candidates from team.ScanExchange (runs the step)"});
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>("trajectory",
+                                                       Absorbed("own optimised keyframes", 256));
+    poses_ = spec.Input<msgs::KeyframePoses>("teammate_keyframe_poses",
+                                             FromLink("teammates' keyframe poses (link)"));
+    loops_in_ = spec.Input<msgs::LoopClosureMessage>(
+        "teammate_loop_closures", FromLink("loops teammates accepted with us (link)"));
+    events_ =
+        spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    loops_ = spec.Output<msgs::TeamLoops>("loops", "every candidate, accepted flagged, every step");
+    loops_out_ = spec.Output<msgs::LoopClosureMessage>("loop_closures", "accepted loops to send");
+    RobotIdParam(spec, &o_.robot_id);
+    spec.Param("method", &method_, {.doc = "consistency filter", .choices = {"gcm", "pcm"}});
+    spec.Param("min_clique_size", &o_.filter.min_clique_size,
+               {.doc = "minimum consistent set", .min = 1});
+    spec.Param("map_sigma_m", &o_.map_sigma_m,
+               {.doc = "map-to-map guess sigma in GCM", .unit = "m", .min = 0.0});
+    spec.Param("map_sigma_rad", &o_.map_sigma_rad,
+               {.doc = "map-to-map guess sigma in GCM", .unit = "rad", .min = 0.0});
+    spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
+  }
+  Status Start(Context&) override {
+    o_.filter.method = method_ == "pcm" ? consistency::Method::kPcm : consistency::Method::kGcm;
+    o_.filter.time_budget_ms = 0.0;  // answers must not depend on machine load
+    stage_ = std::make_unique<ConsistencyStage>(o_);
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
+      if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
+    });
+    in_.Add(poses_, kPoses, [this](const auto& p) { stage_->OnKeyframePoses(p); });
+    in_.Add(loops_in_, kLoops, [this](const auto& l) { stage_->OnLoopClosures(l); });
+    for (const auto& c : candidates_.TakeAll()) {
+      in_.ApplyBefore(c.stamp);
+      msgs::TeamLoops out;
+      out.matches = c->matches;
+      for (auto& m : stage_->Step(c.stamp.Seconds(), c->loops, c->matches, &out.matches.step)) {
+        loops_out_.PublishAt(c.stamp, std::move(m));
+      }
+      out.candidates = stage_->candidates();
+      loops_.PublishAt(c.stamp, std::move(out));
+    }
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (!stage_) return Status::Ok();
+    std::string loops =
+        "id,own_robot,own_keyframe,teammate_robot,teammate_keyframe,x_m,y_m,yaw_rad,overlap,"
+        "accepted\n";
+    for (const auto& l : stage_->candidates()) {
+      char line[256];
+      std::snprintf(line, sizeof line, "%llu,%d,%d,%d,%d,%.4f,%.4f,%.5f,%.3f,%d\n",
+                    static_cast<unsigned long long>(l.id), l.own_robot, l.own_keyframe,
+                    l.teammate_robot, l.teammate_keyframe, l.T_ownkf_teammatekf.x_m,
+                    l.T_ownkf_teammatekf.y_m, l.T_ownkf_teammatekf.yaw_rad, l.overlap,
+                    (l.flags & msgs::kLoopAccepted) ? 1 : 0);
+      loops += line;
+    }
+    return WriteFiles(ctx, prefix_, {{"inter_loops.csv", loops}});
+  }
+
+ private:
+  ConsistencyStageOptions o_;
+  std::string method_ = "gcm";
+  std::string prefix_;
+  std::unique_ptr<ConsistencyStage> stage_;
+  Absorber in_;
+  graph::In<msgs::CandidateLoops> candidates_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
+  graph::In<msgs::KeyframePoses> poses_;
+  graph::In<msgs::LoopClosureMessage> loops_in_;
+  graph::In<msgs::TeammateEvent> events_;
+  graph::Out<msgs::TeamLoops> loops_;
+  graph::Out<msgs::LoopClosureMessage> loops_out_;
+};
+
+// ------------------------------------------------------------------------ team.TwoStepOptimizer
+
+class TwoStepOptimizerComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Two-step PGO (own chain of local-SLAM poses, teammates' shared trajectories, accepted "
+        "loops, map-to-map guesses) at most every optimize_period_s when something changed: "
+        "the team estimate in the own map frame. Writes <prefix>team.<robot>.tum per placed "
+        "robot and <prefix>agent_steps.csv (the work of every stage per step).");
+    loops_ = spec.Input<msgs::TeamLoops>(
+        "loops", {.depth = 64, .doc = "loops from team.ConsistencyFilter (runs the step)"});
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", Absorbed("own keyframes"));
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>("trajectory",
+                                                       Absorbed("own optimised keyframes", 256));
+    poses_ = spec.Input<msgs::KeyframePoses>("teammate_keyframe_poses",
+                                             FromLink("teammates' keyframe poses (link)"));
+    events_ =
+        spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    RobotIdParam(spec, &o_.robot_id);
+    spec.Param("team_names", &team_names_,
+               {.doc = "robot names by id (output file names): alpha, bravo, ..."});
+    spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
+    spec.Param("optimize_period_s", &o_.optimize_period_s,
+               {.doc = "two-step PGO at most this often", .unit = "s", .min = 0.0});
+    spec.Param("place_unverified_teammates", &o_.place_unverified_teammates,
+               {.doc = "place teammates by the map-to-map guess before any loop is accepted"});
+  }
+  Status Start(Context&) override {
+    stage_ = std::make_unique<OptimizerStage>(o_);
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    in_.Add(keyframe_, kOwnKeyframe, [this](const auto& k) { stage_->OnKeyframe(k); });
+    in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
+      if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
+    });
+    in_.Add(poses_, kPoses, [this](const auto& p) { stage_->OnKeyframePoses(p); });
+    for (const auto& l : loops_.TakeAll()) {
+      in_.ApplyBefore(l.stamp);
+      msgs::TeamStepStats st = l->matches.step;
+      stage_->Step(l.stamp.Seconds(), l->candidates, l->matches, &st);
+      steps_.push_back(st);
+    }
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (!stage_) return Status::Ok();
+    const auto& est = stage_->estimate();
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const auto& [id, traj] : est.trajectories) {
+      std::string text = "# timestamp x y z qx qy qz qw (robot " + Name(id) +
+                         " in the map frame of robot " + Name(o_.robot_id) + ")\n";
+      for (const auto& k : traj) {
+        char line[200];
+        std::snprintf(line, sizeof line, "%.6f %.4f %.4f 0 0 0 %.9f %.9f\n", k.time_s,
+                      k.T_map_kf.x_m, k.T_map_kf.y_m, std::sin(0.5 * k.T_map_kf.yaw_rad),
+                      std::cos(0.5 * k.T_map_kf.yaw_rad));
+        text += line;
+      }
+      files.push_back({"team." + Name(id) + ".tum", text});
+    }
+    std::string steps =
+        "time_s,matches_tried,matches_found,requests_sent,scans_registered,candidates_added,"
+        "loops_accepted,optimized,wall_ms\n";
+    for (const auto& s : steps_) {
+      char line[200];
+      std::snprintf(line, sizeof line, "%.3f,%d,%d,%d,%d,%d,%d,%d,%.3f\n", s.time_s,
+                    s.matches_tried, s.matches_found, s.requests_sent, s.scans_registered,
+                    s.candidates_added, s.loops_accepted, s.optimized ? 1 : 0, s.wall_ms);
+      steps += line;
+    }
+    files.push_back({"agent_steps.csv", steps});
+    return WriteFiles(ctx, prefix_, files);
+  }
+
+ private:
+  std::string Name(int id) const {
+    if (id >= 0 && id < static_cast<int>(team_names_.size())) return team_names_[id];
+    return "robot" + std::to_string(id);
+  }
+
+  OptimizerStageOptions o_;
+  std::vector<std::string> team_names_{"alpha", "bravo", "charlie"};
+  std::string prefix_;
+  std::unique_ptr<OptimizerStage> stage_;
+  std::vector<msgs::TeamStepStats> steps_;
+  Absorber in_;
+  graph::In<msgs::TeamLoops> loops_;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
+  graph::In<msgs::KeyframePoses> poses_;
+  graph::In<msgs::TeammateEvent> events_;
+};
+
+}  // namespace
+
+DRACO_REGISTER_COMPONENT(ObjectMapperComponent, "team.ObjectMapper")
+DRACO_REGISTER_COMPONENT(GraphMatcherComponent, "team.GraphMatcher")
+DRACO_REGISTER_COMPONENT(ScanExchangeComponent, "team.ScanExchange")
+DRACO_REGISTER_COMPONENT(ConsistencyFilterComponent, "team.ConsistencyFilter")
+DRACO_REGISTER_COMPONENT(TwoStepOptimizerComponent, "team.TwoStepOptimizer")
+
+}  // namespace draco::agent
