@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
@@ -32,16 +33,27 @@ int main(int argc, char** argv) {
   CLI::App app{"draco-robot: one robot's SLAM daemon (local SLAM, team stages, fleet link)"};
   draco::fleet_app::RobotSetup setup;
   std::string robot;
-  std::string graph_path = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
+  std::string graph_path;
+  std::string team_list;
   std::string out_dir;
   std::vector<std::string> overrides;
   double rate = 0.0;
   bool no_lockstep = false;
   bool quiet = false;
   setup.dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
-  app.add_option("--mission", setup.mission_dir, "recorded mission folder")->required();
-  app.add_option("--robot", robot, "robot name in the mission")->required();
-  app.add_option("--graph", graph_path, "robot graph YAML");
+  auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder");
+  auto* bag_opt =
+      app.add_option("--bag", setup.bag, "ROS 1 bag of this robot (instead of --mission)")
+          ->check(CLI::ExistingFile);
+  mission_opt->excludes(bag_opt);
+  auto* team_opt = app.add_option("--team", team_list,
+                                  "with --bag: the team's robot names in id order, e.g. "
+                                  "alpha,bravo,charlie");
+  team_opt->needs(bag_opt);
+  bag_opt->needs(team_opt);
+  app.add_option("--robot", robot, "robot name in the mission (or in --team)")->required();
+  app.add_option("--graph", graph_path,
+                 "robot graph YAML (default config/graphs/robot.yaml, robot-bag.yaml with --bag)");
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
@@ -56,20 +68,36 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, OnSignal);
 
   try {
-    const auto info = draco::recording::LoadMissionInfo(setup.mission_dir);
-    for (const auto& r : info.robots) setup.team.push_back(r.name);
+    if (setup.mission_dir.empty() && setup.bag.empty()) {
+      std::cerr << "draco-robot: give --mission DIR or --bag FILE --team NAMES\n";
+      return 1;
+    }
+    std::string source;
+    if (setup.bag.empty()) {
+      const auto info = draco::recording::LoadMissionInfo(setup.mission_dir);
+      for (const auto& r : info.robots) setup.team.push_back(r.name);
+      setup.world = info.world;
+      source = "mission " + setup.mission_dir;
+      if (out_dir.empty()) out_dir = "runs/robot-" + info.name;
+      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
+    } else {
+      std::stringstream names(team_list);
+      for (std::string n; std::getline(names, n, ',');) {
+        if (!n.empty()) setup.team.push_back(n);
+      }
+      source = "--team " + team_list;
+      if (out_dir.empty()) out_dir = "runs/robot-" + robot;
+      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot-bag.yaml";
+    }
     const auto it = std::find(setup.team.begin(), setup.team.end(), robot);
     if (it == setup.team.end()) {
-      std::cerr << "draco-robot: mission " << setup.mission_dir << " has no robot '" << robot
-                << "' (robots: ";
+      std::cerr << "draco-robot: " << source << " has no robot '" << robot << "' (robots: ";
       for (const auto& n : setup.team) std::cerr << n << " ";
       std::cerr << ")\n";
       return 1;
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
-    setup.world = info.world;
     setup.lockstep = !no_lockstep && setup.transport == "dds";
-    if (out_dir.empty()) out_dir = "runs/robot-" + info.name;
     std::filesystem::create_directories(out_dir);
 
     draco::graph::LoadOptions load;
@@ -82,14 +110,18 @@ int main(int argc, char** argv) {
     run.stop_requested = &g_stop;
     // Every daemon of the team runs to the end of the longest replay (a robot whose recording
     // ended keeps its link and agent going), as the in-process team does.
-    run.until = draco::graph::Time::FromSeconds(
-        draco::fleet_app::MissionLengthS(setup.mission_dir, setup.team));
+    // (A bag's length is not known beforehand: the run ends with the bag.)
+    if (setup.bag.empty()) {
+      run.until = draco::graph::Time::FromSeconds(
+          draco::fleet_app::MissionLengthS(setup.mission_dir, setup.team));
+    }
     if (rate > 0.0) {
       run.rate = rate;
       run.use_graph_rate = false;
     }
     draco::graph::ProgressPrinter progress(
-        "draco-robot: " + robot, draco::fleet_app::MissionLengthS(setup.mission_dir, {robot}));
+        "draco-robot: " + robot,
+        setup.bag.empty() ? draco::fleet_app::MissionLengthS(setup.mission_dir, {robot}) : 0.0);
     if (!quiet) run.progress = [&](draco::graph::Time t) { progress.Update(t); };
     const auto result = draco::graph::RunDeterministic(*graph, run);
     if (!quiet) progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));

@@ -50,9 +50,13 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
   const std::string name = s.team.at(static_cast<std::size_t>(s.robot_id));
   std::vector<std::string> ids;
   for (std::size_t i = 0; i < s.team.size(); ++i) ids.push_back(std::to_string(i));
-  std::vector<std::string> o = {
-      p + "reader.recording=" + s.mission_dir,
-      p + "reader.robot=" + name,
+  std::vector<std::string> o;
+  if (s.bag.empty()) {
+    o = {p + "reader.recording=" + s.mission_dir, p + "reader.robot=" + name};
+  } else {
+    o = {p + "reader.bag=" + s.bag};
+  }
+  const std::vector<std::string> common = {
       p + "slam.prefix=" + name + ".",
       p + "truth.file=" + name + ".ground_truth.tum",
       p + "mapper.robot_id=" + std::to_string(s.robot_id),
@@ -72,6 +76,7 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
       p + "link.domain_id=" + std::to_string(s.domain_id),
       p + "link.lockstep=" + std::string(s.lockstep ? "true" : "false"),
   };
+  o.insert(o.end(), common.begin(), common.end());
   if (!s.dds_config.empty()) o.push_back(p + "link.dds_config=" + s.dds_config);
   if (Airplane(s.world)) {
     // As draco-team-eval: nearer candidates on the airplane (docs/front-end.md).

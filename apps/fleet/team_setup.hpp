@@ -10,7 +10,8 @@
 namespace draco::fleet_app {
 
 struct RobotSetup {
-  std::string mission_dir;
+  std::string mission_dir;        // a recorded mission, or
+  std::string bag;                // a ROS 1 bag (then team comes from the command line)
   std::vector<std::string> team;  // robot names in mission order; the id is the position
   int robot_id = 0;
   std::string world;              // the mission's world (selection radius on the airplane)
