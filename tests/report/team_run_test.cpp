@@ -290,3 +290,48 @@ TEST(TeamRun, MalformedLoopsNameTheLine) {
   }
   fs::remove_all(dir);
 }
+
+// Fig. 3 from logged registrations: per window and threshold, the converged, judged ones with
+// overlap >= threshold; hand-counted.
+TEST(TeamRun, OverlapSweepCountsByWindowAndThreshold) {
+  const fs::path dir = fs::temp_directory_path() / ("draco_sweep_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string p = (dir / "a.registrations.csv").string();
+  WriteFileAtomically(
+      p,
+      "time_s,window,configured,own_robot,own_keyframe,teammate_robot,teammate_keyframe,x_m,y_m,"
+      "yaw_rad,overlap,status\n"
+      "1,3,1,0,1,1,1,0,0,0,0.95,accepted\n"
+      "1,3,1,0,2,1,2,0,0,0,0.70,low overlap\n"
+      "1,3,1,0,3,1,3,0,0,0,0.99,ICP failed\n"
+      "1,0,0,0,1,1,1,0,0,0,0.60,low overlap\n");
+  auto rows = ReadRegistrations(p);
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].window, 3);
+  EXPECT_TRUE(rows[0].configured);
+  EXPECT_TRUE(rows[1].loop.accepted);   // ICP converged, overlap below the threshold
+  EXPECT_FALSE(rows[2].loop.accepted);  // ICP failed: never counted
+  // Verdicts as JudgeInterLoops would give them: the first is true, the second false.
+  for (auto& r : rows) r.loop.judged = true;
+  rows[0].loop.true_positive = true;
+  rows[3].loop.true_positive = true;
+  const auto sweep = OverlapSweep(rows, {0.5, 0.8, 0.96});
+  ASSERT_EQ(sweep.size(), 6u);  // windows 0 and 3, three thresholds each
+  auto at = [&](int w, double t) {
+    for (const auto& s : sweep) {
+      if (s.window == w && std::abs(s.threshold - t) < 1e-9) return s;
+    }
+    ADD_FAILURE() << "no point " << w << " " << t;
+    return SweepPoint{};
+  };
+  EXPECT_EQ(at(3, 0.5).registrations, 2);
+  EXPECT_EQ(at(3, 0.5).true_positives, 1);
+  EXPECT_DOUBLE_EQ(at(3, 0.5).precision, 0.5);
+  EXPECT_EQ(at(3, 0.8).registrations, 1);
+  EXPECT_DOUBLE_EQ(at(3, 0.8).precision, 1.0);
+  EXPECT_EQ(at(3, 0.96).registrations, 0);
+  EXPECT_TRUE(std::isnan(at(3, 0.96).precision));
+  EXPECT_EQ(at(0, 0.5).true_positives, 1);
+  EXPECT_EQ(at(0, 0.8).registrations, 0);
+  fs::remove_all(dir);
+}

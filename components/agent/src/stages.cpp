@@ -493,6 +493,18 @@ std::vector<int> ScanExchangeStage::Candidates(const msgs::ObjectMap& own_object
   return r.empty() ? std::vector<int>{} : r.front().candidates;
 }
 
+void ScanExchangeStage::Log(double now_s, int window, bool configured,
+                            const reg::RegistrationResult& r) {
+  if (attempts_.size() >= options_.max_logged) return;
+  RegistrationAttempt a;
+  a.time_s = now_s;
+  a.window = window;
+  a.configured = configured;
+  a.status = r.status;
+  a.loop = r.loop;
+  attempts_.push_back(a);
+}
+
 ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::ObjectMap& own_objects,
                                                   const msgs::MapMatches& matches,
                                                   msgs::TeamStepStats* st) {
@@ -527,6 +539,15 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
             reg::SeedPose(own_scans_[static_cast<std::size_t>(k)].T_map_kf, *guess, scan.T_map_kf);
         const auto r = reg::RegisterScan(own_scans_, k, scan.points_kf, seed, options_.registration,
                                          options_.robot_id, robot, scan.keyframe);
+        Log(now_s, options_.registration.window, true, r);
+        for (const int w : options_.log_windows) {
+          if (w == options_.registration.window || w < 0) continue;
+          auto o = options_.registration;
+          o.window = w;
+          Log(now_s, w, false,
+              reg::RegisterScan(own_scans_, k, scan.points_kf, seed, o, options_.robot_id, robot,
+                                scan.keyframe));
+        }
         if (!r.accepted() || !Finite(r.loop.T_ownkf_teammatekf) ||
             !PositiveDefinite(r.loop.covariance)) {
           continue;

@@ -289,9 +289,34 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "... and within this heading difference", .unit = "rad", .min = 0.0});
     spec.Param("max_scans_per_request", &o_.max_scans_per_request,
                {.doc = "scans served per request at most", .min = 0, .max = 256});
+    spec.Param("log_windows", &o_.log_windows,
+               {.doc = "also register at these windows, for evaluation only (Fig. 3)",
+                .min = 0,
+                .max = 20});
+    spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
     stage_ = std::make_unique<ScanExchangeStage>(o_);
+    return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (!stage_ || ctx.output_dir().empty()) return Status::Ok();
+    std::string csv =
+        "time_s,window,configured,own_robot,own_keyframe,teammate_robot,teammate_keyframe,x_m,"
+        "y_m,yaw_rad,overlap,status\n";
+    for (const auto& a : stage_->attempts()) {
+      char line[256];
+      const auto& l = a.loop;
+      std::snprintf(line, sizeof line, "%.3f,%d,%d,%d,%d,%d,%d,%.4f,%.4f,%.5f,%.4f,%s\n", a.time_s,
+                    a.window, a.configured ? 1 : 0, l.own_robot, l.own_keyframe, l.teammate_robot,
+                    l.teammate_keyframe, l.T_ownkf_teammatekf.x_m, l.T_ownkf_teammatekf.y_m,
+                    l.T_ownkf_teammatekf.yaw_rad, l.overlap,
+                    registration::RegistrationStatusName(a.status));
+      csv += line;
+    }
+    const auto path =
+        (std::filesystem::path(ctx.output_dir()) / (prefix_ + "registrations.csv")).string();
+    if (!graph::WriteFileAtomically(path, csv)) return Status::Fatal("cannot write " + path);
     return Status::Ok();
   }
   Status Process(Context&) override {
@@ -320,6 +345,7 @@ class ScanExchangeComponent final : public graph::Component {
 
  private:
   ScanExchangeStageOptions o_;
+  std::string prefix_;
   std::unique_ptr<ScanExchangeStage> stage_;
   Absorber in_;
   std::shared_ptr<const msgs::OwnObjectMap> own_;

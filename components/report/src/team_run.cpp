@@ -162,6 +162,59 @@ std::vector<InterLoop> ReadInterLoops(const std::string& csv_path) {
   return out;
 }
 
+std::vector<RegistrationRow> ReadRegistrations(const std::string& csv_path) {
+  const Csv csv = ReadCsv(csv_path);
+  std::vector<RegistrationRow> out;
+  if (csv.rows.empty()) return out;
+  const std::size_t window = csv.Col("window"), configured = csv.Col("configured"),
+                    own_r = csv.Col("own_robot"), own_k = csv.Col("own_keyframe"),
+                    mate_r = csv.Col("teammate_robot"), mate_k = csv.Col("teammate_keyframe"),
+                    x = csv.Col("x_m"), y = csv.Col("y_m"), yaw = csv.Col("yaw_rad"),
+                    overlap = csv.Col("overlap"), status = csv.Col("status");
+  for (std::size_t i = 0; i < csv.rows.size(); ++i) {
+    RegistrationRow r;
+    r.window = static_cast<int>(csv.Number(i, window));
+    r.configured = csv.Number(i, configured) != 0.0;
+    r.loop.own_robot = static_cast<int>(csv.Number(i, own_r));
+    r.loop.own_keyframe = static_cast<int>(csv.Number(i, own_k));
+    r.loop.teammate_robot = static_cast<int>(csv.Number(i, mate_r));
+    r.loop.teammate_keyframe = static_cast<int>(csv.Number(i, mate_k));
+    r.loop.x_m = csv.Number(i, x);
+    r.loop.y_m = csv.Number(i, y);
+    r.loop.yaw_rad = csv.Number(i, yaw);
+    r.loop.overlap = csv.Number(i, overlap);
+    const std::string& st = csv.rows[i][status];
+    r.loop.accepted = st == "accepted" || st == "low overlap";
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::vector<SweepPoint> OverlapSweep(const std::vector<RegistrationRow>& rows,
+                                     const std::vector<double>& thresholds) {
+  std::set<int> windows;
+  for (const auto& r : rows) windows.insert(r.window);
+  std::vector<SweepPoint> out;
+  for (const int w : windows) {
+    for (const double t : thresholds) {
+      SweepPoint p;
+      p.window = w;
+      p.threshold = t;
+      for (const auto& r : rows) {
+        if (r.window != w || !r.loop.accepted || !r.loop.judged || r.loop.overlap < t - 1e-9) {
+          continue;
+        }
+        ++p.registrations;
+        if (r.loop.true_positive) ++p.true_positives;
+      }
+      p.precision = p.registrations > 0 ? static_cast<double>(p.true_positives) / p.registrations
+                                        : std::numeric_limits<double>::quiet_NaN();
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
 bool TruthAt(const eval::Trajectory& truth, double t, eval::StampedPose2* out, double max_gap_s) {
   if (truth.empty() || t < truth.front().time_s - 1e-9 || t > truth.back().time_s + 1e-9) {
     return false;
@@ -480,6 +533,21 @@ TeamResult EvaluateTeamRun(const std::string& run_dir, const std::string& missio
     }
     out.loops.push_back(std::move(loops));
 
+    if (const fs::path p = dir / (name + ".registrations.csv"); fs::exists(p)) {
+      try {
+        auto rows = ReadRegistrations(p.string());
+        std::vector<InterLoop> judged;
+        for (const auto& row : rows) judged.push_back(row.loop);
+        JudgeInterLoops(&judged, keyframes, truth, loop_truth);
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+          rows[k].loop = judged[k];
+          out.registrations.push_back(rows[k]);
+        }
+      } catch (const std::exception& e) {
+        out.problems.push_back(e.what());
+      }
+    }
+
     if (const fs::path p = dir / (name + ".agent_steps.csv"); fs::exists(p)) {
       try {
         StepWork w = ReadAgentSteps(p.string());
@@ -530,6 +598,11 @@ TeamResult EvaluateTeamRun(const std::string& run_dir, const std::string& missio
   std::vector<InterLoop> unique;
   for (const auto& [key, l] : distinct) unique.push_back(l);
   out.distinct_loops = CountLoops(unique);
+  if (out.has_truth && !out.registrations.empty()) {
+    std::vector<double> thresholds;
+    for (int i = 0; i <= 9; ++i) thresholds.push_back(0.5 + 0.05 * i);
+    out.sweep = OverlapSweep(out.registrations, thresholds);
+  }
   for (auto& [name, k] : kinds) out.kinds.push_back(k);
   std::stable_sort(out.kinds.begin(), out.kinds.end(), [](const KindSizes& a, const KindSizes& b) {
     return KindRank(a.kind) < KindRank(b.kind);

@@ -191,9 +191,23 @@ struct ScanExchangeStageOptions {
   int robot_id = 0;
   registration::SelectionOptions selection;        // max_requests, min_points, candidates
   registration::RegistrationOptions registration;  // window 3, min_overlap 0.85
+  // For evaluation only (the paper's Fig. 3): every registration is also run at these windows
+  // and logged with its overlap whatever the threshold; decisions use `registration` alone.
+  std::vector<int> log_windows{0, 1, 3};
+  std::size_t max_logged = 200000;
   int max_scans_per_request = 20;
   int max_teammate_keyframes = 20000;
   int max_teammate_scans = 400;
+};
+
+// One registration as logged for evaluation: the window it used, its ICP result and overlap
+// (rejected ones too), and whether it is the configured window's decision.
+struct RegistrationAttempt {
+  double time_s = 0.0;
+  int window = 0;
+  bool configured = false;  // the window decisions use
+  registration::RegistrationStatus status = registration::RegistrationStatus::kEmptyTarget;
+  msgs::InterRobotLoop loop;  // robots, keyframes, pose, overlap
 };
 
 class ScanExchangeStage {
@@ -222,8 +236,10 @@ class ScanExchangeStage {
   Output Step(double now_s, const msgs::ObjectMap& own_objects, const msgs::MapMatches& matches,
               msgs::TeamStepStats* stats);
   const std::map<int, Teammate>& teammates() const { return mates_; }
+  const std::vector<RegistrationAttempt>& attempts() const { return attempts_; }
 
  private:
+  void Log(double now_s, int window, bool configured, const registration::RegistrationResult& r);
   void RebuildOwnScans();
   void Serve(double now_s, const msgs::ObjectMap& own_objects, Output* out);
   std::vector<int> Candidates(const msgs::ObjectMap& own_objects, const msgs::Pose2& T_own_teammate,
@@ -240,6 +256,7 @@ class ScanExchangeStage {
   std::vector<registration::KeyframeScan> own_scans_;
   std::vector<registration::KeyframeInfo> own_info_;
   std::map<int, int> own_scan_position_;
+  std::vector<RegistrationAttempt> attempts_;
 };
 
 // ------------------------------------------------------------------------- 4. GCM / PCM

@@ -62,6 +62,29 @@ void JudgeInterLoops(std::vector<InterLoop>* loops, const std::vector<eval::Traj
 // the three verdict fields are empty for a loop that could not be judged.
 std::string InterLoopsVerdictCsv(const std::vector<InterLoop>& loops);
 
+// One row of <robot>.registrations.csv: every registration the scan exchange ran, at the
+// configured window and at the windows logged for evaluation, with its overlap whatever the
+// threshold; `loop.accepted` = ICP converged (status accepted or low overlap).
+struct RegistrationRow {
+  int window = 0;
+  bool configured = false;
+  InterLoop loop;
+};
+// Throws std::runtime_error naming file and line on malformed input.
+std::vector<RegistrationRow> ReadRegistrations(const std::string& csv_path);
+
+// The paper's Fig. 3: for each window and overlap threshold, the judged registrations whose ICP
+// converged with overlap >= threshold, how many are true positives, and the precision.
+struct SweepPoint {
+  int window = 0;
+  double threshold = 0.0;
+  int registrations = 0;
+  int true_positives = 0;
+  double precision = 0.0;  // NaN when no registration passes
+};
+std::vector<SweepPoint> OverlapSweep(const std::vector<RegistrationRow>& rows,
+                                     const std::vector<double>& thresholds);
+
 // Loop counts before (every candidate) and after (accepted) the consistency filter.
 struct LoopCounts {
   int candidates = 0;
@@ -147,12 +170,14 @@ struct TeamResult {
   std::string mission_dir;        // ground truth from here when not empty
   std::vector<std::string> team;  // robot names by id
   std::vector<RobotResult> robots;
-  std::vector<KindSizes> kinds;               // summed over robots
-  std::vector<std::vector<InterLoop>> loops;  // per robot (as robots), with the verdict
-  LoopCounts distinct_loops;                  // over the team, each loop once
-  std::vector<StepWork> steps;                // robots with agent_steps.csv
-  std::vector<TrafficFrame> traffic;          // every robot's link_traffic.csv
-  bool has_truth = false;                     // loops were judged
+  std::vector<KindSizes> kinds;                // summed over robots
+  std::vector<std::vector<InterLoop>> loops;   // per robot (as robots), with the verdict
+  LoopCounts distinct_loops;                   // over the team, each loop once
+  std::vector<StepWork> steps;                 // robots with agent_steps.csv
+  std::vector<TrafficFrame> traffic;           // every robot's link_traffic.csv
+  bool has_truth = false;                      // loops were judged
+  std::vector<RegistrationRow> registrations;  // every robot's registrations.csv, judged
+  std::vector<SweepPoint> sweep;               // OverlapSweep over them, 0.50 .. 0.95
   std::vector<std::string> problems;
 };
 
@@ -184,8 +209,9 @@ std::string FormatTeamResult(const TeamResult& result, const std::string& title)
 std::string TeamResultMarkdown(const TeamResult& result);
 
 // Figures of a team run, written into the run folder: team_map.png (robot map_robot's frame;
-// default the first robot) and link_traffic.png (+ link_traffic_detail.png, scaled to the
-// traffic). Returns them relative to the run folder.
+// default the first robot), link_traffic.png (+ link_traffic_detail.png, scaled to the
+// traffic) and, with judged registrations, fig3.png (precision and true positives against the
+// overlap threshold per window). Returns them relative to the run folder.
 std::vector<ReportFigure> RenderTeamFigures(const TeamResult& result, int map_robot = 0);
 
 // The team sections of report.md: Table III (team ATE), inter-robot loop closures, Table II,
