@@ -13,6 +13,7 @@
 
 #include "draco/consistency/pairwise.hpp"
 #include "draco/consistency/se2.hpp"
+#include "draco/msgs/rigid_fit.hpp"
 
 namespace draco::agent {
 namespace {
@@ -56,24 +57,8 @@ pg::Matrix3 Information(double sigma_xy, double sigma_yaw) {
 
 // T with placed[i] ~ T * local[i] (least squares over the positions; SE(2) alignment).
 std::optional<Pose2> AlignSe2(const std::vector<Pose2>& local, const std::vector<Pose2>& placed) {
-  const std::size_t n = std::min(local.size(), placed.size());
-  if (n < 2) return std::nullopt;
-  double lx = 0, ly = 0, px = 0, py = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    lx += local[i].x_m, ly += local[i].y_m, px += placed[i].x_m, py += placed[i].y_m;
-  }
-  lx /= double(n), ly /= double(n), px /= double(n), py /= double(n);
-  double sc = 0, ss = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double ax = local[i].x_m - lx, ay = local[i].y_m - ly;
-    const double bx = placed[i].x_m - px, by = placed[i].y_m - py;
-    sc += ax * bx + ay * by;
-    ss += ax * by - ay * bx;
-  }
-  if (std::abs(sc) + std::abs(ss) < 1e-9) return std::nullopt;  // all at one point
-  const double yaw = std::atan2(ss, sc);
-  const double c = std::cos(yaw), s = std::sin(yaw);
-  return Pose2{px - (c * lx - s * ly), py - (s * lx + c * ly), yaw};
+  if (std::min(local.size(), placed.size()) < 2) return std::nullopt;
+  return msgs::FitRigid2d(local, placed);
 }
 
 using LoopKey = std::tuple<int, int, int>;  // teammate, own keyframe, teammate keyframe

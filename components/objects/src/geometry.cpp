@@ -1,6 +1,8 @@
 // Convex hull, minimum-area rectangle and rigid fit (see geometry.hpp).
 #include "draco/objects/geometry.hpp"
 
+#include "draco/msgs/rigid_fit.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -125,24 +127,13 @@ Point2 Transform(const Pose2& T, const Point2& p) {
 }
 
 Pose2 FitRigid(const std::vector<Point2>& a, const std::vector<Point2>& b) {
+  if (const auto T = msgs::FitRigid2d(b, a)) return *T;
+  // One pair (or every point at one place): the translation between the centres.
   const std::size_t n = std::min(a.size(), b.size());
   if (n == 0) return {};
-  double ax = 0, ay = 0, bx = 0, by = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    ax += a[i].x_m, ay += a[i].y_m, bx += b[i].x_m, by += b[i].y_m;
-  }
-  ax /= double(n), ay /= double(n), bx /= double(n), by /= double(n);
-  // Rotation maximising sum a'^T R b': theta = atan2(sum(b'x a'y - b'y a'x), sum(b'.a')).
-  double sxx = 0, sxy = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double pax = a[i].x_m - ax, pay = a[i].y_m - ay;
-    const double pbx = b[i].x_m - bx, pby = b[i].y_m - by;
-    sxx += pbx * pax + pby * pay;
-    sxy += pbx * pay - pby * pax;
-  }
-  const double theta = (sxx == 0.0 && sxy == 0.0) ? 0.0 : std::atan2(sxy, sxx);
-  const double c = std::cos(theta), s = std::sin(theta);
-  return {ax - (c * bx - s * by), ay - (s * bx + c * by), theta};
+  double dx = 0, dy = 0;
+  for (std::size_t i = 0; i < n; ++i) dx += a[i].x_m - b[i].x_m, dy += a[i].y_m - b[i].y_m;
+  return {dx / double(n), dy / double(n), 0.0};
 }
 
 double NormalizeAngle(double a) {

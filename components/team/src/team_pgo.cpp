@@ -9,6 +9,8 @@
 #include <string>
 #include <utility>
 
+#include "draco/msgs/rigid_fit.hpp"
+
 namespace draco::team {
 namespace {
 
@@ -92,24 +94,10 @@ void AddRobot(PoseGraph2d& graph, int robot, const RobotGraph& rg, const Pose2& 
 // Rigid SE(2) transform T with T * source[k] ~ target[k] (positions, least squares); a single
 // pair gives the full pose alignment.
 Pose2 FitRigid(const std::vector<Pose2>& source, const std::vector<Pose2>& target) {
-  if (source.size() == 1) return Compose(target[0], Inverse(source[0]));
-  double psx = 0, psy = 0, ptx = 0, pty = 0;
-  for (std::size_t k = 0; k < source.size(); ++k) {
-    psx += source[k].x_m, psy += source[k].y_m, ptx += target[k].x_m, pty += target[k].y_m;
+  if (source.size() >= 2) {
+    if (const auto T = msgs::FitRigid2d(source, target)) return {T->x_m, T->y_m, T->yaw_rad};
   }
-  const double n = static_cast<double>(source.size());
-  psx /= n, psy /= n, ptx /= n, pty /= n;
-  double sin_sum = 0, cos_sum = 0;
-  for (std::size_t k = 0; k < source.size(); ++k) {
-    const double sx = source[k].x_m - psx, sy = source[k].y_m - psy;
-    const double tx = target[k].x_m - ptx, ty = target[k].y_m - pty;
-    cos_sum += sx * tx + sy * ty;
-    sin_sum += sx * ty - sy * tx;
-  }
-  if (std::hypot(sin_sum, cos_sum) < 1e-9) return Compose(target[0], Inverse(source[0]));
-  const double yaw = std::atan2(sin_sum, cos_sum);
-  const double c = std::cos(yaw), s = std::sin(yaw);
-  return {ptx - (c * psx - s * psy), pty - (s * psx + c * psy), yaw};
+  return Compose(target[0], Inverse(source[0]));  // one pair: the full pose alignment
 }
 
 }  // namespace
