@@ -48,48 +48,8 @@ void AppendDouble(std::string& out, double v) {
   out.append(buf, res.ptr);
 }
 
-void AppendJsonString(std::string& out, const std::string& s) {
-  out += '"';
-  for (const char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(c));
-          out += buf;
-        } else {
-          out += c;
-        }
-    }
-  }
-  out += '"';
-}
-
-// Name for kind k: names[k]; kinds past the list are "kind<k>"; "" means not reported.
-std::string KindName(const std::vector<std::string>& names, std::size_t k) {
-  if (k < names.size()) return names[k];
-  return "kind" + std::to_string(k);
-}
-
 // Queued frames carry delivered_s = NaN; the frame being transmitted has its delivery time.
 bool InFlight(const Frame& f) { return !std::isnan(f.delivered_s); }
-
-bool Active(const KindStats& s) {
-  return s.frames_sent || s.dropped_queue || s.dropped_expired || s.lost || s.frames_received ||
-         s.rejected;
-}
 
 }  // namespace
 
@@ -249,55 +209,6 @@ std::vector<Frame> Inbox::Due(double now_s) {
     out.push_back(std::move(it->second));
     it = held_.erase(it);
   }
-  return out;
-}
-
-std::string LinkStatsJson(const LinkStats& stats, const std::vector<std::string>& names) {
-  std::string out = "{\n  \"kinds\": {";
-  bool first = true;
-  KindStats total;
-  for (std::size_t k = 0; k < stats.by_kind.size(); ++k) {
-    const KindStats& s = stats.by_kind[k];
-    total.frames_sent += s.frames_sent;
-    total.bits_sent += s.bits_sent;
-    total.max_bits = std::max(total.max_bits, s.max_bits);
-    total.dropped_queue += s.dropped_queue;
-    total.dropped_expired += s.dropped_expired;
-    total.lost += s.lost;
-    total.frames_received += s.frames_received;
-    total.bits_received += s.bits_received;
-    total.rejected += s.rejected;
-    const std::string name = KindName(names, k);
-    if (name.empty() || (k >= names.size() && !Active(s))) continue;
-    out += first ? "\n    " : ",\n    ";
-    first = false;
-    AppendJsonString(out, name);
-    out += ": {\"kind\": " + std::to_string(k);
-    out += ", \"frames_sent\": " + std::to_string(s.frames_sent);
-    out += ", \"bits_sent\": " + std::to_string(s.bits_sent);
-    out += ", \"mean_bits\": ";
-    AppendDouble(out, s.frames_sent ? static_cast<double>(s.bits_sent) / s.frames_sent : 0.0);
-    out += ", \"max_bits\": " + std::to_string(s.max_bits);
-    out += ", \"dropped_queue\": " + std::to_string(s.dropped_queue);
-    out += ", \"dropped_expired\": " + std::to_string(s.dropped_expired);
-    out += ", \"lost\": " + std::to_string(s.lost);
-    out += ", \"frames_received\": " + std::to_string(s.frames_received);
-    out += ", \"bits_received\": " + std::to_string(s.bits_received);
-    out += ", \"rejected\": " + std::to_string(s.rejected) + "}";
-  }
-  out += first ? "},\n" : "\n  },\n";
-  out += "  \"total\": {\"frames_sent\": " + std::to_string(total.frames_sent);
-  out += ", \"bits_sent\": " + std::to_string(total.bits_sent);
-  out += ", \"max_bits\": " + std::to_string(total.max_bits);
-  out += ", \"dropped_queue\": " + std::to_string(total.dropped_queue);
-  out += ", \"dropped_expired\": " + std::to_string(total.dropped_expired);
-  out += ", \"lost\": " + std::to_string(total.lost);
-  out += ", \"frames_received\": " + std::to_string(total.frames_received);
-  out += ", \"bits_received\": " + std::to_string(total.bits_received);
-  out += ", \"rejected\": " + std::to_string(total.rejected) + "},\n";
-  out += "  \"busy_s\": ";
-  AppendDouble(out, stats.busy_s);
-  out += ",\n  \"transmissions\": " + std::to_string(stats.traffic.size()) + "\n}\n";
   return out;
 }
 

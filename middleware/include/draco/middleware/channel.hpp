@@ -108,9 +108,8 @@ class Inbox {
   std::map<std::tuple<double, std::uint16_t, std::uint32_t>, Frame> held_;
 };
 
-// Statistics as JSON (per kind by name; names[k] for kind k, "" entries skipped) and the
-// traffic records as CSV (start_s,end_s,kind,bits,lost).
-std::string LinkStatsJson(const LinkStats& stats, const std::vector<std::string>& names);
+// The traffic records as CSV (start_s,end_s,kind,bits,lost); names[k] names kind k. (The
+// statistics as JSON are written by the link endpoint, components/fleet.)
 std::string TrafficCsv(const LinkStats& stats, const std::vector<std::string>& names);
 
 }  // namespace draco::middleware
