@@ -86,7 +86,12 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   draco::graph::RunOptions run;
   run.output_dir = out_dir;
   run.stop_requested = &g_stop;
-  run.until = draco::graph::Time::FromSeconds(draco::fleet_app::MissionLengthS(o.mission, team));
+  if (const double end_s = draco::fleet_app::MissionLengthS(o.mission, team); end_s > 0.0) {
+    run.until = draco::graph::Time::FromSeconds(end_s);
+  } else {
+    std::cerr << "draco-fleet: warning: no replay length from " << o.mission
+              << "/<robot>/ahrs.csv: running until every recording ends\n";
+  }
   draco::graph::ProgressPrinter progress("draco-fleet: in-process team",
                                          draco::fleet_app::MissionLengthS(o.mission, team));
   run.progress = [&](draco::graph::Time t) { progress.Update(t); };
@@ -157,7 +162,9 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
   }
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
-  bool killed = false, restarted = false, timed_out = false;
+  bool killed = false, restarted = false, timed_out = false, stopping = false;
+  double stop_sent_at = 0.0;
+  constexpr double kStopGraceS = 15.0;
   double killed_at = 0.0;
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -170,7 +177,9 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
       for (auto it = pids.begin(); it != pids.end(); ++it) {
         if (it->second != done) continue;
         const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-        const bool was_killed = killed && !restarted && it->first == o.kill;
+        // Only our SIGKILL counts as the kill: a daemon that finished just before it is done.
+        const bool was_killed = killed && !restarted && it->first == o.kill &&
+                                WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
         if (!was_killed) {
           codes[it->first] = code;
           std::printf("draco-fleet: %s finished (exit %d) after %.1f s\n", it->first.c_str(), code,
@@ -185,11 +194,18 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
       }
       continue;
     }
-    if (g_stop) {
+    if (g_stop && !stopping) {
       for (const auto& [r, pid] : pids) {
         if (pid > 0) ::kill(pid, SIGTERM);
       }
-      g_stop = false;  // wait for them to flush
+      stopping = true;  // wait for them to flush
+      stop_sent_at = elapsed();
+    }
+    if (stopping && elapsed() - stop_sent_at > kStopGraceS) {
+      for (const auto& [r, pid] : pids) {
+        if (pid > 0) ::kill(pid, SIGKILL);  // did not stop within the grace period
+      }
+      stop_sent_at = 1e300;
     }
     if (!o.kill.empty() && !killed && elapsed() >= o.kill_after_s && pids.count(o.kill) &&
         pids[o.kill] > 0) {
@@ -197,7 +213,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
       killed = true;
       killed_at = elapsed();
     }
-    if (killed && !restarted && o.restart_after_s >= 0 &&
+    if (killed && !restarted && !stopping && o.restart_after_s >= 0 &&
         elapsed() >= killed_at + o.restart_after_s && pids.count(o.kill) && pids[o.kill] < 0) {
       pids[o.kill] = Spawn(args_for(o.kill), out_dir + "/" + o.kill + ".log");
       restarted = true;
@@ -205,16 +221,14 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
                   elapsed());
       std::fflush(stdout);
     }
-    if (killed && o.restart_after_s < 0 && pids.count(o.kill) && pids[o.kill] < 0) {
+    if (killed && (o.restart_after_s < 0 || stopping) && pids.count(o.kill) && pids[o.kill] < 0) {
       codes[o.kill] = 137;
       pids.erase(o.kill);
     }
     if (!timed_out && elapsed() > o.timeout_s) {
       timed_out = true;
       std::cerr << "draco-fleet: timeout after " << o.timeout_s << " s; stopping the daemons\n";
-      for (const auto& [r, pid] : pids) {
-        if (pid > 0) ::kill(pid, SIGTERM);
-      }
+      g_stop = true;  // SIGTERM now, SIGKILL after the grace period
     }
     if (elapsed() - last_note > 30.0) {
       last_note = elapsed();
@@ -272,6 +286,7 @@ int main(int argc, char** argv) {
     int rc = 0;
     for (const std::string m : {"inproc", "dds"}) {
       if (mode != "both" && mode != m) continue;
+      if (g_stop) break;  // interrupted: do not start the next mode
       const std::string dir = o.out + "/" + m;
       const int code = m == "dds" ? RunDds(o, team, dir) : RunInProcess(o, info, team, dir);
       if (code != 0) rc = code;

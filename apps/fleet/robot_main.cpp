@@ -112,8 +112,14 @@ int main(int argc, char** argv) {
     // ended keeps its link and agent going), as the in-process team does.
     // (A bag's length is not known beforehand: the run ends with the bag.)
     if (setup.bag.empty()) {
-      run.until = draco::graph::Time::FromSeconds(
-          draco::fleet_app::MissionLengthS(setup.mission_dir, setup.team));
+      const double end_s = draco::fleet_app::MissionLengthS(setup.mission_dir, setup.team);
+      if (end_s > 0.0) {
+        run.until = draco::graph::Time::FromSeconds(end_s);
+      } else {
+        std::cerr << "draco-robot: warning: no replay length from " << setup.mission_dir
+                  << "/<robot>/ahrs.csv (missing or unreadable last line): running to the end "
+                     "of the own recording\n";
+      }
     }
     if (rate > 0.0) {
       run.rate = rate;

@@ -196,10 +196,10 @@ void AcousticChannel::CountRejected(std::uint8_t kind) {
   ++stats_.by_kind[KindIndex(kind)].rejected;
 }
 
-void Inbox::Add(Frame frame) {
-  if (!std::isfinite(frame.delivered_s)) return;  // would break the ordering; never delivered
+bool Inbox::Add(Frame frame) {
+  if (!std::isfinite(frame.delivered_s)) return false;  // would break the ordering
   auto key = std::make_tuple(frame.delivered_s, frame.source, frame.seq);
-  held_.insert_or_assign(key, std::move(frame));
+  return held_.try_emplace(key, std::move(frame)).second;  // a duplicate keeps the first
 }
 
 std::vector<Frame> Inbox::Due(double now_s) {

@@ -246,5 +246,81 @@ TEST(LinkEndpoint, AFloodingTeammateCannotCrowdOutTheOthers) {
   (void)in;
 }
 
+TEST(LinkEndpoint, FramesOfAReplacedIncarnationAreStale) {
+  const std::string bus = Bus();
+  LinkOptions o0 = Options(0, 1), o1 = Options(1, 101), n1 = Options(1, 999);
+  o0.team = o1.team = n1.team = {0, 1};
+  o0.channel.team_size = o1.channel.team_size = n1.channel.team_size = 2;
+  LinkEndpoint a(o0, middleware::MakeInProcessTransport(bus, 0));
+  LinkEndpoint old1(o1, middleware::MakeInProcessTransport(bus, 1));
+  for (double t = 0.0; t <= 1.0; t += 0.5) {
+    a.Tick(t, nullptr);
+    old1.Tick(t, nullptr);
+  }
+  LinkEndpoint new1(n1, middleware::MakeInProcessTransport(bus, 1));  // the restart
+  new1.Tick(1.5, nullptr);
+  a.Tick(1.5, nullptr);
+  old1.Tick(2.0, nullptr);  // the old daemon's last heartbeat, still on its way
+  new1.Tick(2.0, nullptr);
+  a.Tick(2.0, nullptr);
+  a.Tick(2.5, nullptr);
+  a.Tick(3.0, nullptr);
+  EXPECT_EQ(a.teammates().at(1).incarnation, 999u);
+  EXPECT_EQ(a.teammates().at(1).restarts, 1);
+  EXPECT_GE(a.counters().stale_incarnation, 1u);
+}
+
+TEST(LinkEndpoint, ARestartedTeammateGetsTheLastMapWithoutNews) {
+  const std::string bus = Bus();
+  LinkOptions o0 = Options(0, 1), o1 = Options(1, 2);
+  o0.team = o1.team = {0, 1};
+  o0.channel.team_size = o1.channel.team_size = 2;
+  o1.resend_map_s = 5.0;
+  auto a = std::make_unique<LinkEndpoint>(o0, middleware::MakeInProcessTransport(bus, 0));
+  LinkEndpoint b(o1, middleware::MakeInProcessTransport(bus, 1));
+  msgs::FleetOutgoing out;
+  out.has_object_map = true;
+  out.object_map = Map(6, 0.0);
+  int maps = 0;
+  for (double t = 0.0; t <= 30.0; t += 0.5) {
+    if (t == 15.0) {  // a restarts: a new incarnation that holds nothing of b's map
+      a.reset();
+      o0.incarnation = 77;
+      a = std::make_unique<LinkEndpoint>(o0, middleware::MakeInProcessTransport(bus, 0));
+    }
+    const auto in = a->Tick(t, nullptr);
+    for (const auto& m : in.object_maps) maps += m.map.objects.size() == 6u ? 1 : 0;
+    b.Tick(t, t == 1.0 ? &out : nullptr);  // b's map never changes after t = 1
+  }
+  EXPECT_EQ(maps, 2) << "once before the restart, once after";
+  EXPECT_EQ(b.stats().by_kind[2].frames_sent, 2u);
+}
+
+TEST(LinkEndpoint, DeltasThatGrowTheHeldMapPastTheBoundAreRejected) {
+  const std::string bus = Bus();
+  LinkOptions o0 = Options(0, 1), o1 = Options(1, 2);
+  o0.team = o1.team = {0, 1};
+  o0.channel.team_size = o1.channel.team_size = 2;
+  o0.bounds.max_objects = 10;
+  LinkEndpoint a(o0, middleware::MakeInProcessTransport(bus, 0));
+  LinkEndpoint b(o1, middleware::MakeInProcessTransport(bus, 1));
+  msgs::FleetOutgoing first, second;
+  first.has_object_map = second.has_object_map = true;
+  first.object_map = Map(8, 0.0);
+  second.object_map = Map(8, 0.0);
+  for (auto o : Map(8, 100.0).objects) {  // 8 more objects elsewhere: 16 held > 10
+    o.id += 100;
+    second.object_map.objects.push_back(o);
+  }
+  std::size_t held = 0;
+  for (double t = 0.0; t <= 12.0; t += 0.5) {
+    for (const auto& m : a.Tick(t, nullptr).object_maps) held = m.map.objects.size();
+    b.Tick(t, t == 1.0 ? &first : (t == 8.0 ? &second : nullptr));
+  }
+  EXPECT_EQ(held, 8u);
+  EXPECT_EQ(a.teammates().at(1).held_map.objects.size(), 8u);
+  EXPECT_GE(a.counters().rejected, 1u);
+}
+
 }  // namespace
 }  // namespace draco::fleet

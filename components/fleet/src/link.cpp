@@ -66,9 +66,13 @@ LinkEndpoint::LinkEndpoint(const LinkOptions& options,
   if (!transport_) throw std::invalid_argument("LinkEndpoint: no transport");
   if (options_.tick_s <= 0.0) throw std::invalid_argument("LinkEndpoint: tick_s must be > 0");
   if (options_.incarnation == 0) options_.incarnation = DrawIncarnation();
+  if (options_.robot_id < 0 || options_.robot_id > 63) {
+    throw std::invalid_argument("LinkEndpoint: robot id " + std::to_string(options_.robot_id) +
+                                " outside 0..63");
+  }
   for (int id : options_.team) {
     if (id == options_.robot_id) continue;
-    if (id < 0 || id > options_.bounds.max_robot_id) {
+    if (id < 0 || id > std::min(63, options_.bounds.max_robot_id)) {
       throw std::invalid_argument("LinkEndpoint: robot id " + std::to_string(id) + " outside 0.." +
                                   std::to_string(options_.bounds.max_robot_id));
     }
@@ -107,7 +111,32 @@ void LinkEndpoint::Queue(FleetKind kind, int destination, std::vector<std::uint8
   channel_.Enqueue(std::move(f), now_s);
 }
 
-void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
+void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s) {
+  // The newest own map and poses are kept, so a teammate that joins or restarts after they
+  // stopped changing (e.g. our recording ended) still gets them.
+  msgs::FleetOutgoing out = given;
+  if (out.has_poses) {
+    for (auto& p : out.poses) p.num_points = std::min(p.num_points, options_.bounds.max_points);
+    last_poses_ = out.poses;
+    has_last_poses_ = true;
+  } else if (send_full_poses_ && has_last_poses_) {
+    out.has_poses = true;
+    out.poses = last_poses_;
+  }
+  if (out.has_object_map) {
+    last_map_ = out.object_map;
+    has_last_map_ = true;
+  } else if (has_last_map_) {
+    // A listening teammate holds nothing of our map (joined, restarted, lost the full map):
+    // send it again, at most every resend_map_s.
+    for (const auto& [id, t] : teammates_) {
+      if (t.known && !t.left && !t.silent && t.acked_own_version == 0 &&
+          now_s - t.last_map_sent_s >= options_.resend_map_s) {
+        out.has_object_map = true;
+        out.object_map = last_map_;
+      }
+    }
+  }
   bool anyone = false;
   for (const auto& [id, t] : teammates_) anyone = anyone || (t.known && !t.left);
   if (out.has_poses) own_keyframes_ = static_cast<int>(out.poses.size());
@@ -134,7 +163,7 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
     std::uint32_t base = 0;
     bool first = true;
     for (const auto& [id, t] : teammates_) {
-      if (!t.known || t.left) continue;
+      if (!t.known || t.left || t.silent) continue;  // a silent one's stale ack would force full
       if (first) {
         base = t.acked_own_version;
         first = false;
@@ -146,6 +175,7 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
     if (object_encoder_.MakeUpdate(out.object_map, base, &update)) {
       update.header = Header(FleetKind::kObjectMap, now_s);
       queue(FleetKind::kObjectMap, -1, update);
+      for (auto& [id, t] : teammates_) t.last_map_sent_s = now_s;
     }
   }
   for (auto r : out.requests) {
@@ -156,9 +186,17 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& out, double now_s) {
     r.header = Header(FleetKind::kScanReply, now_s);
     queue(FleetKind::kScanReply, r.requester_robot, r);
   }
-  for (auto l : out.loops) {
-    l.header = Header(FleetKind::kLoopClosures, now_s);
-    queue(FleetKind::kLoopClosures, l.target_robot, l);
+  for (const auto& all : out.loops) {
+    // At most max_loops per message: a large batch (a filter rebuild) goes in several.
+    const std::size_t chunk = static_cast<std::size_t>(std::max(1, options_.bounds.max_loops));
+    for (std::size_t begin = 0; begin < all.loops.size() || begin == 0; begin += chunk) {
+      auto l = all;
+      l.loops.assign(all.loops.begin() + static_cast<std::ptrdiff_t>(begin),
+                     all.loops.begin() +
+                         static_cast<std::ptrdiff_t>(std::min(all.loops.size(), begin + chunk)));
+      l.header = Header(FleetKind::kLoopClosures, now_s);
+      queue(FleetKind::kLoopClosures, l.target_robot, l);
+    }
   }
 }
 
@@ -204,7 +242,7 @@ void LinkEndpoint::ReceiveAll(double now_s) {
         ++counters_.rejected;
         continue;
       }
-      NoteIncarnation(t, inc);
+      if (!NoteIncarnation(t, inc)) continue;
       t->clock_s = clock;
       t->left = f.payload[12] != 0;
       t->hears_us = ((GetU64(f.payload, 13, 8) >> options_.robot_id) & 1ULL) != 0;
@@ -220,13 +258,22 @@ void LinkEndpoint::ReceiveAll(double now_s) {
       ++counters_.inbox_overflow;
       continue;
     }
-    ++t->held_frames;
-    inbox_.Add(std::move(f));
+    if (inbox_.Add(std::move(f))) ++t->held_frames;
   }
 }
 
-void LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation) {
-  if (t->known && incarnation == t->incarnation) return;
+bool LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation) {
+  if (t->known && incarnation == t->incarnation) return true;
+  // Frames of an incarnation that was replaced (still in flight, or held in the inbox) are
+  // stale: they must not switch the teammate back.
+  if (std::find(t->retired.begin(), t->retired.end(), incarnation) != t->retired.end()) {
+    ++counters_.stale_incarnation;
+    return false;
+  }
+  if (t->known) {
+    t->retired.push_back(t->incarnation);
+    if (t->retired.size() > 8) t->retired.erase(t->retired.begin());
+  }
   const bool restarted = t->known;
   pending_events_.push_back(
       {t->robot_id, incarnation,
@@ -242,7 +289,9 @@ void LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnati
   t->timeout_clock_s = -1e300;
   t->clock_s = -1e300;
   t->frames_since_restart = 0;
+  t->last_map_sent_s = -1e300;
   send_full_poses_ = true;
+  return true;
 }
 
 bool LinkEndpoint::InStep(const TeammateLinkState& t, double now_s) const {
@@ -308,7 +357,7 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
       reject();
       return false;
     }
-    NoteIncarnation(t, h.incarnation);
+    if (!NoteIncarnation(t, h.incarnation)) return false;
     t->last_heard_s = now_s;
     t->silent = false;
     ++t->frames_received;
@@ -332,10 +381,17 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
       msgs::ObjectMapUpdate m;
       if (!Decode(f.payload, &m, options_.codec, options_.bounds)) return reject();
       if (!check_header(m.header)) return;
-      if (!ApplyObjectMapUpdate(m, &t->held_map, &t->held_map_version)) {
+      msgs::ObjectMap merged = t->held_map;
+      std::uint32_t version = t->held_map_version;
+      if (!ApplyObjectMapUpdate(m, &merged, &version)) {
         ++t->base_mismatches;
         return;
       }
+      if (merged.objects.size() > static_cast<std::size_t>(options_.bounds.max_objects)) {
+        return reject();  // deltas that grow the held map past the bound: never trusted
+      }
+      t->held_map = std::move(merged);
+      t->held_map_version = version;
       t->held_map.robot_id = t->robot_id;
       t->held_map.time_s = m.header.time_s;
       in->object_maps.push_back({m.header, t->held_map_version, t->held_map});
@@ -375,7 +431,10 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
 
 msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* outgoing,
                                        const std::function<bool()>& cancelled) {
-  if (outgoing != nullptr) QueueOutgoing(*outgoing, now_s);
+  // Every tick, also without news: a teammate that joined or restarted may need the last map
+  // and poses again.
+  static const msgs::FleetOutgoing kNothing;
+  QueueOutgoing(outgoing != nullptr ? *outgoing : kNothing, now_s);
   if (now_s >= next_heartbeat_s_) {
     next_heartbeat_s_ = now_s + options_.heartbeat_period_s;
     msgs::Heartbeat hb;
@@ -472,6 +531,7 @@ std::string LinkEndpoint::StatsJson() const {
                       {"not_for_us", counters_.not_for_us},
                       {"rejected", counters_.rejected},
                       {"header_mismatch", counters_.header_mismatch},
+                      {"stale_incarnation", counters_.stale_incarnation},
                       {"inbox_overflow", counters_.inbox_overflow},
                       {"encode_errors", counters_.encode_errors},
                       {"last_encode_error", counters_.last_encode_error},

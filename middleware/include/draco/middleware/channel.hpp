@@ -99,7 +99,9 @@ class AcousticChannel {
 // Receiver side: frames held until due.
 class Inbox {
  public:
-  void Add(Frame frame);
+  // False when not held: a non-finite delivery time, or a frame with the same (delivered_s,
+  // source, seq) already held (a duplicate).
+  bool Add(Frame frame);
   // Frames with delivered_s <= now_s in (delivered_s, source, seq) order.
   std::vector<Frame> Due(double now_s);
   std::size_t size() const { return held_.size(); }

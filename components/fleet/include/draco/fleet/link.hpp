@@ -48,7 +48,8 @@ struct LinkOptions {
   bool lockstep = false;
   double lockstep_timeout_s = 10.0;  // wall seconds
   double startup_timeout_s = 30.0;   // wall seconds to discover every teammate (first tick)
-  double max_lag_s = 2.0;  // a teammate further behind (restarted, stalled) is not waited for
+  double max_lag_s = 2.0;      // a teammate further behind (restarted, stalled) is not waited for
+  double resend_map_s = 10.0;  // own map sent again this often to a teammate that holds none
   std::size_t max_held_frames = 4096;  // receiver inbox bound, shared equally by the teammates
 };
 
@@ -70,6 +71,8 @@ struct TeammateLinkState {
   std::uint64_t frames_rejected = 0;
   std::uint64_t base_mismatches = 0;
   std::size_t held_frames = 0;             // its frames in the inbox, not yet due
+  std::vector<std::uint32_t> retired;      // its replaced incarnations (their frames: stale)
+  double last_map_sent_s = -1e300;         // own object map last queued (for resends)
   int restarts = 0;                        // new incarnations seen after the first
   std::uint64_t frames_since_restart = 0;  // messages from the current incarnation
 };
@@ -77,8 +80,9 @@ struct TeammateLinkState {
 struct LinkCounters {
   std::uint64_t unknown_robot = 0;  // frames from a robot id not in the team
   std::uint64_t not_for_us = 0;
-  std::uint64_t rejected = 0;         // failed to decode or broke a bound
-  std::uint64_t header_mismatch = 0;  // message header robot differs from the frame source
+  std::uint64_t rejected = 0;           // failed to decode or broke a bound
+  std::uint64_t header_mismatch = 0;    // message header robot differs from the frame source
+  std::uint64_t stale_incarnation = 0;  // frames of a teammate's replaced incarnation
   std::uint64_t inbox_overflow = 0;
   std::uint64_t encode_errors = 0;  // own messages that broke a bound (not sent)
   std::string last_encode_error;    // what the last such message broke
@@ -115,7 +119,8 @@ class LinkEndpoint {
   void ReceiveAll(double now_s);
   void WaitForTeammates(double now_s, const std::function<bool()>& cancelled);
   bool InStep(const TeammateLinkState& t, double now_s) const;
-  void NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation);
+  // False: a replaced incarnation (the frame is stale and dropped).
+  bool NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnation);
   void Deliver(const middleware::Frame& frame, double now_s, msgs::FleetIncoming* in);
   msgs::FleetHeader Header(msgs::FleetKind kind, double now_s);
   TeammateLinkState* Teammate(int robot_id);
@@ -131,6 +136,10 @@ class LinkEndpoint {
   std::uint32_t seq_[msgs::kNumFleetKinds] = {};
   double next_heartbeat_s_ = 0.0;
   bool send_full_poses_ = false;
+  msgs::ObjectMap last_map_;  // the newest own map and poses the agent gave
+  bool has_last_map_ = false;
+  std::vector<msgs::KeyframePoseEntry> last_poses_;
+  bool has_last_poses_ = false;
   bool started_ = false;
   int own_keyframes_ = 0;
   LinkCounters counters_;
