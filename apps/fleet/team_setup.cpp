@@ -98,22 +98,27 @@ std::string ComposeTeamGraph(const std::string& robot_graph_path,
   e << YAML::Key << "components" << YAML::Value << YAML::BeginSeq;
   for (const auto& robot : team) {
     for (const auto& c : comps) {
-      if (!c.IsMap() || !c["id"] || !c["type"]) {
-        throw std::runtime_error(robot_graph_path + ": a component without id or type");
-      }
-      e << YAML::BeginMap;
-      e << YAML::Key << "id" << YAML::Value << robot + "_" + c["id"].as<std::string>();
-      e << YAML::Key << "type" << YAML::Value << c["type"].as<std::string>();
-      if (const auto in = c["inputs"]) {
-        e << YAML::Key << "inputs" << YAML::Value << YAML::BeginMap;
-        for (const auto& kv : in) {
-          e << YAML::Key << kv.first.as<std::string>() << YAML::Value
-            << robot + "_" + kv.second.as<std::string>();
+      try {
+        if (!c.IsMap() || !c["id"] || !c["type"]) {
+          throw std::runtime_error(robot_graph_path + ": a component without id or type");
         }
+        e << YAML::BeginMap;
+        e << YAML::Key << "id" << YAML::Value << robot + "_" + c["id"].as<std::string>();
+        e << YAML::Key << "type" << YAML::Value << c["type"].as<std::string>();
+        if (const auto in = c["inputs"]) {
+          e << YAML::Key << "inputs" << YAML::Value << YAML::BeginMap;
+          for (const auto& kv : in) {
+            e << YAML::Key << kv.first.as<std::string>() << YAML::Value
+              << robot + "_" + kv.second.as<std::string>();
+          }
+          e << YAML::EndMap;
+        }
+        if (const auto params = c["params"]) e << YAML::Key << "params" << YAML::Value << params;
         e << YAML::EndMap;
+      } catch (const YAML::Exception& ex) {
+        throw std::runtime_error(robot_graph_path + " (or a graph it includes): line " +
+                                 std::to_string(ex.mark.line + 1) + ": " + ex.msg);
       }
-      if (const auto params = c["params"]) e << YAML::Key << "params" << YAML::Value << params;
-      e << YAML::EndMap;
     }
   }
   e << YAML::EndSeq << YAML::EndMap;

@@ -731,5 +731,41 @@ TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
   EXPECT_TRUE(stage.candidates().empty());
 }
 
+TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {
+  Mission run;
+  Simulate(&run);
+  // B's registrations of A's scans, as B would send them to A; A's stage takes at most 3.
+  std::vector<msgs::InterRobotLoop> theirs;
+  for (auto l : run.agent_b->consistency().candidates()) {
+    if (l.own_robot == kB && l.teammate_robot == kA) theirs.push_back(l);
+  }
+  ASSERT_GE(theirs.size(), 5u);
+  auto options = TeamAgent::ConsistencyOptions(Options(kA));
+  options.max_received_loops_per_teammate = 3;
+  ConsistencyStage stage(options);
+  msgs::KeyframeTrajectory traj;
+  for (const auto& k : run.a.keyframes)
+    traj.keyframes.push_back({k.index, k.time_s, k.T_odom_body});
+  stage.OnTrajectory(traj);
+  msgs::KeyframePoses poses;
+  poses.header.robot_id = kB;
+  poses.header.incarnation = run.b.incarnation;
+  poses.full = true;
+  for (const auto& k : run.b.keyframes) {
+    poses.poses.push_back(
+        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
+  }
+  stage.OnKeyframePoses(poses);
+  msgs::LoopClosureMessage message;
+  message.header = poses.header;
+  message.target_robot = kA;
+  message.loops = theirs;
+  stage.OnLoopClosures(message);
+  msgs::TeamStepStats st;
+  stage.Step(100.0, {}, run.agent_a->matcher().matches(), &st);
+  EXPECT_EQ(stage.candidates().size(), 3u);
+  EXPECT_EQ(stage.teammates().at(kB).ignored, static_cast<int>(theirs.size()) - 3);
+}
+
 }  // namespace
 }  // namespace draco::agent

@@ -667,6 +667,10 @@ struct ConsistencyStage::Impl {
         }
         const LoopKey key{robot, in.teammate_keyframe, in.own_keyframe};
         if (keys.count(key)) continue;  // the same pair registered here or received before
+        if (mate.loops_taken >= options.max_received_loops_per_teammate) {
+          ++mate.ignored;
+          continue;
+        }
         cons::UncertainPose z;
         z.pose = in.T_ownkf_teammatekf;
         z.covariance = cons::ToMatrix(in.covariance);
@@ -688,6 +692,7 @@ struct ConsistencyStage::Impl {
         }
         keys.insert(key);
         received_ids.insert(loop.id);
+        ++mate.loops_taken;
         out.push_back(loop);
       }
       mate.loops_in.clear();

@@ -270,12 +270,16 @@ struct ConsistencyStageOptions {
   double map_sigma_m = 1.0;
   double map_sigma_rad = 0.05;
   int max_teammate_keyframes = 20000;
+  // Loops a teammate may hand us over a mission (a mission gives tens); beyond, its loops are
+  // ignored and counted, so a faulty teammate cannot grow the filter's problem without end.
+  int max_received_loops_per_teammate = 2000;
 };
 
 class ConsistencyStage {
  public:
   struct Teammate {
     std::vector<msgs::InterRobotLoop> loops_in;  // received, checked at the next step
+    int loops_taken = 0;                         // received loops entered into the filter
     int candidates = 0;
     int accepted = 0;
     int ignored = 0;  // received loops naming unknown keyframes, broken, or not ours
