@@ -680,6 +680,25 @@ TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   EXPECT_EQ(stage.teammates().count(kB), 0u);
 }
 
+// A's filter stage fed A's trajectory and B's full keyframe poses (as B's link would hand
+// them); returns the header B's messages carry.
+msgs::FleetHeader FeedOwnAndTeammatePoses(const Mission& run, ConsistencyStage* stage) {
+  msgs::KeyframeTrajectory traj;
+  for (const auto& k : run.a.keyframes)
+    traj.keyframes.push_back({k.index, k.time_s, k.T_odom_body});
+  stage->OnTrajectory(traj);
+  msgs::KeyframePoses poses;
+  poses.header.robot_id = kB;
+  poses.header.incarnation = run.b.incarnation;
+  poses.full = true;
+  for (const auto& k : run.b.keyframes) {
+    poses.poses.push_back(
+        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
+  }
+  stage->OnKeyframePoses(poses);
+  return poses.header;
+}
+
 TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
   Mission run;
   Simulate(&run);
@@ -695,19 +714,7 @@ TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
   }
   ASSERT_GE(registered.size(), 5u);
   ConsistencyStage stage(TeamAgent::ConsistencyOptions(Options(kA)));
-  msgs::KeyframeTrajectory traj;
-  for (const auto& k : run.a.keyframes)
-    traj.keyframes.push_back({k.index, k.time_s, k.T_odom_body});
-  stage.OnTrajectory(traj);
-  msgs::KeyframePoses poses;
-  poses.header.robot_id = kB;
-  poses.header.incarnation = run.b.incarnation;
-  poses.full = true;
-  for (const auto& k : run.b.keyframes) {
-    poses.poses.push_back(
-        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
-  }
-  stage.OnKeyframePoses(poses);
+  FeedOwnAndTeammatePoses(run, &stage);
   const msgs::MapMatches& matches = run.agent_a->matcher().matches();
   msgs::TeamStepStats st;
   const auto sent = stage.Step(100.0, registered, matches, &st);
@@ -743,21 +750,9 @@ TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {
   auto options = TeamAgent::ConsistencyOptions(Options(kA));
   options.max_received_loops_per_teammate = 3;
   ConsistencyStage stage(options);
-  msgs::KeyframeTrajectory traj;
-  for (const auto& k : run.a.keyframes)
-    traj.keyframes.push_back({k.index, k.time_s, k.T_odom_body});
-  stage.OnTrajectory(traj);
-  msgs::KeyframePoses poses;
-  poses.header.robot_id = kB;
-  poses.header.incarnation = run.b.incarnation;
-  poses.full = true;
-  for (const auto& k : run.b.keyframes) {
-    poses.poses.push_back(
-        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
-  }
-  stage.OnKeyframePoses(poses);
+  const msgs::FleetHeader header = FeedOwnAndTeammatePoses(run, &stage);
   msgs::LoopClosureMessage message;
-  message.header = poses.header;
+  message.header = header;
   message.target_robot = kA;
   message.loops = theirs;
   stage.OnLoopClosures(message);
