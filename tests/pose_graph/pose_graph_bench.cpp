@@ -36,21 +36,24 @@ struct Config {
 };
 
 // baseline: Ceres' defaults (LM, initial trust region 1e4, SuiteSparse, one thread).
-// default: SolverOptions{} (LM, initial trust region 1e12, SuiteSparse, two threads).
+// default: SolverOptions{} (LM, initial trust region 1e12, Eigen sparse Cholesky, two threads).
 const Config kConfigs[] = {
-    {"baseline_ceres_defaults", {.num_threads = 1, .initial_trust_region_radius = 1e4}},
+    {"baseline_ceres_defaults",
+     {.sparse_backend = SparseBackend::kSuiteSparse,
+      .num_threads = 1,
+      .initial_trust_region_radius = 1e4}},
     {"default", {}},
     {"default_1thread", {.num_threads = 1}},
-    {"default_eigen", {.sparse_backend = SparseBackend::kEigenSparse}},
+    {"default_suitesparse", {.sparse_backend = SparseBackend::kSuiteSparse}},
     {"default_cxsparse", {.sparse_backend = SparseBackend::kCxSparse}},
     {"default_radius1e8", {.initial_trust_region_radius = 1e8}},
     {"default_noscaling", {.jacobi_scaling = false}},
     {"default_ftol1e-4", {.function_tolerance = 1e-4}},
     {"lm_radius1e4_2threads", {.initial_trust_region_radius = 1e4}},
     {"dogleg", {.algorithm = Algorithm::kDogleg, .initial_trust_region_radius = 1e4}},
-    {"dogleg_eigen",
+    {"dogleg_suitesparse",
      {.algorithm = Algorithm::kDogleg,
-      .sparse_backend = SparseBackend::kEigenSparse,
+      .sparse_backend = SparseBackend::kSuiteSparse,
       .initial_trust_region_radius = 1e4}},
 };
 

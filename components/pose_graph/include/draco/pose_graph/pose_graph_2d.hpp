@@ -66,7 +66,7 @@ enum class SparseBackend { kSuiteSparse, kEigenSparse, kCxSparse };
 struct SolverOptions {
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   LinearSolver linear_solver = LinearSolver::kSparseNormalCholesky;
-  SparseBackend sparse_backend = SparseBackend::kSuiteSparse;
+  SparseBackend sparse_backend = SparseBackend::kEigenSparse;
   int max_iterations = 100;
   int num_threads = 2;
   double function_tolerance = 1e-6;  // relative decrease of the cost
