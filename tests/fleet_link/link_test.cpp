@@ -322,5 +322,21 @@ TEST(LinkEndpoint, DeltasThatGrowTheHeldMapPastTheBoundAreRejected) {
   EXPECT_GE(a.counters().rejected, 1u);
 }
 
+TEST(LinkEndpoint, AnObjectBeyondTheBoundsIsLeftOutNotTheMap) {
+  Team team(Bus());
+  team.Tick(0.0);
+  team.Tick(0.5);
+  msgs::FleetOutgoing out;
+  out.has_object_map = true;
+  out.object_map = Map(5, 0.0);
+  out.object_map.objects[2].length_m = 900.0;  // past the 500 m side bound
+  team.Tick(1.0, {&out});
+  const auto in = team.Tick(1.5);
+  ASSERT_EQ(in[1].object_maps.size(), 1u);
+  EXPECT_EQ(in[1].object_maps[0].map.objects.size(), 4u);
+  EXPECT_EQ(team.links[0]->counters().objects_left_out, 1u);
+  EXPECT_EQ(team.links[0]->counters().encode_errors, 0u);
+}
+
 }  // namespace
 }  // namespace draco::fleet

@@ -124,6 +124,26 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s)
     out.poses = last_poses_;
   }
   if (out.has_object_map) {
+    // Objects the encoding cannot carry (beyond the coordinate or side bounds, or past the
+    // count bound: the smallest go) are left out, so one odd object never stops map sharing.
+    const Bounds& b = options_.bounds;
+    auto& objects = out.object_map.objects;
+    const auto unsendable = [&b](const msgs::Object& o) {
+      return !(std::abs(o.center.x_m) <= b.max_abs_coordinate_m &&
+               std::abs(o.center.y_m) <= b.max_abs_coordinate_m && o.length_m >= 0.0 &&
+               o.length_m <= b.max_object_side_m && o.breadth_m >= 0.0 &&
+               o.breadth_m <= b.max_object_side_m);
+    };
+    const std::size_t before = objects.size();
+    objects.erase(std::remove_if(objects.begin(), objects.end(), unsendable), objects.end());
+    if (objects.size() > static_cast<std::size_t>(b.max_objects)) {
+      std::stable_sort(objects.begin(), objects.end(),
+                       [](const auto& x, const auto& y) { return x.num_points > y.num_points; });
+      objects.resize(static_cast<std::size_t>(b.max_objects));
+      std::sort(objects.begin(), objects.end(),
+                [](const auto& x, const auto& y) { return x.id < y.id; });
+    }
+    counters_.objects_left_out += before - objects.size();
     last_map_ = out.object_map;
     has_last_map_ = true;
   } else if (has_last_map_) {
@@ -532,6 +552,7 @@ std::string LinkEndpoint::StatsJson() const {
                       {"rejected", counters_.rejected},
                       {"header_mismatch", counters_.header_mismatch},
                       {"stale_incarnation", counters_.stale_incarnation},
+                      {"objects_left_out", counters_.objects_left_out},
                       {"inbox_overflow", counters_.inbox_overflow},
                       {"encode_errors", counters_.encode_errors},
                       {"last_encode_error", counters_.last_encode_error},

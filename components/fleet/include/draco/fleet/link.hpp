@@ -83,6 +83,7 @@ struct LinkCounters {
   std::uint64_t rejected = 0;           // failed to decode or broke a bound
   std::uint64_t header_mismatch = 0;    // message header robot differs from the frame source
   std::uint64_t stale_incarnation = 0;  // frames of a teammate's replaced incarnation
+  std::uint64_t objects_left_out = 0;   // own objects the encoding's bounds cannot carry
   std::uint64_t inbox_overflow = 0;
   std::uint64_t encode_errors = 0;  // own messages that broke a bound (not sent)
   std::string last_encode_error;    // what the last such message broke
