@@ -174,6 +174,25 @@ std::string DecodeBlock(const std::vector<std::uint8_t>& block, PointCoding codi
                     : base + static_cast<std::int64_t>(magnitude);
     return true;
   };
+  // Delta-coded points: each (ux, uy) is the move from the previous point, zigzag-signed, x
+  // unsigned after the first point when the points are sorted by x.
+  const auto deltas = [&](bool sorted, const auto& read_pair) -> const char* {
+    GridPoint prev;
+    for (int i = 0; i < count; ++i) {
+      std::uint64_t ux = 0, uy = 0;
+      if (const char* error = read_pair(&ux, &uy)) return error;
+      GridPoint q;
+      const bool signed_x = !sorted || i == 0;
+      const std::uint64_t mx = signed_x ? (ux >> 1) + (ux & 1) : ux;
+      const std::uint64_t my = (uy >> 1) + (uy & 1);
+      if (!add(prev.x, mx, signed_x && (ux & 1), &q.x) || !add(prev.y, my, uy & 1, &q.y) ||
+          !check(q))
+        return "coordinate out of bounds";
+      points->push_back(q);
+      prev = q;
+    }
+    return nullptr;
+  };
   points->reserve(static_cast<std::size_t>(count));  // the caller checked count against Bounds
   if (count > 0) {
     switch (coding) {
@@ -205,39 +224,21 @@ std::string DecodeBlock(const std::vector<std::uint8_t>& block, PointCoding codi
         r.Get(kOrderBits, &kx);
         r.Get(kOrderBits, &ky);
         if (!r.ok()) return "truncated";
-        GridPoint prev;
-        for (int i = 0; i < count; ++i) {
-          std::uint64_t ux = 0, uy = 0;
-          if (!r.GetExpGolomb(static_cast<int>(kx), &ux) ||
-              !r.GetExpGolomb(static_cast<int>(ky), &uy))
-            return "truncated or bad code";
-          GridPoint q;
-          const bool signed_x = !sorted || i == 0;
-          const std::uint64_t mx = signed_x ? (ux >> 1) + (ux & 1) : ux;
-          const std::uint64_t my = (uy >> 1) + (uy & 1);
-          if (!add(prev.x, mx, signed_x && (ux & 1), &q.x) || !add(prev.y, my, uy & 1, &q.y) ||
-              !check(q))
-            return "coordinate out of bounds";
-          points->push_back(q);
-          prev = q;
-        }
+        const char* error =
+            deltas(sorted, [&](std::uint64_t* ux, std::uint64_t* uy) -> const char* {
+              return r.GetExpGolomb(static_cast<int>(kx), ux) &&
+                             r.GetExpGolomb(static_cast<int>(ky), uy)
+                         ? nullptr
+                         : "truncated or bad code";
+            });
+        if (error) return error;
         break;
       }
       case PointCoding::kSortedBytes: {
-        GridPoint prev;
-        for (int i = 0; i < count; ++i) {
-          std::uint64_t ux = 0, uy = 0;
-          if (!r.GetVarint(&ux) || !r.GetVarint(&uy)) return "truncated or bad varint";
-          GridPoint q;
-          const bool signed_x = i == 0;
-          const std::uint64_t mx = signed_x ? (ux >> 1) + (ux & 1) : ux;
-          const std::uint64_t my = (uy >> 1) + (uy & 1);
-          if (!add(prev.x, mx, signed_x && (ux & 1), &q.x) || !add(prev.y, my, uy & 1, &q.y) ||
-              !check(q))
-            return "coordinate out of bounds";
-          points->push_back(q);
-          prev = q;
-        }
+        const char* error = deltas(true, [&](std::uint64_t* ux, std::uint64_t* uy) -> const char* {
+          return r.GetVarint(ux) && r.GetVarint(uy) ? nullptr : "truncated or bad varint";
+        });
+        if (error) return error;
         break;
       }
       default:
