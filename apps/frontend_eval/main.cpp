@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
   draco::objects::ObjectMapperOptions mapper;
   draco::objects::MatcherOptions matcher;
   std::string affinity;  // empty: the default
+  double line_angle_deg = 0.0, corner_min_deg = 0.0;
   double over_time_s = 0.0;
   fe::OverTimeOptions over_time;
   app.add_option("mission", mission, "recorded mission folder")->required();
@@ -113,12 +114,35 @@ int main(int argc, char** argv) {
   app.add_option("--ambiguity", matcher.max_ambiguity_ratio,
                  "no match when a distinct runner-up scores >= this fraction of the best (0 off)");
   app.add_option("--distinct-m", matcher.distinct_m, "ambiguity: distinct hypotheses m apart");
+  app.add_option("--split", mapper.split_min_length_m,
+                 "objects: clusters at least this long and not slender become their straight "
+                 "segments (0 off)");
+  app.add_option("--split-aspect", mapper.split_max_aspect, "objects: split below this aspect");
+  app.add_option("--segment-min-length", mapper.segments.min_length_m, "segments: min length m");
+  app.add_flag("--lines", matcher.structure_lines,
+               "also match by the axes of long objects (corners of structure lines)");
+  app.add_option("--line-min-length", matcher.lines.min_length_m, "lines: min object length m");
+  app.add_option("--line-aspect", matcher.lines.min_aspect, "lines: min length / breadth");
+  app.add_option("--line-lateral", matcher.lines.lateral_tolerance_m,
+                 "lines: lateral offset tolerance m");
+  app.add_option("--line-gap", matcher.lines.max_gap_m, "lines: extents may miss by this m");
+  app.add_option("--line-reach", matcher.lines.max_reach_m,
+                 "lines: corner at most this far beyond a segment m");
+  app.add_option("--line-angle-deg", line_angle_deg, "lines: angle tolerance deg");
+  app.add_option("--corner-min-deg", corner_min_deg, "lines: min corner angle deg");
+  app.add_option("--line-support", matcher.min_line_support, "lines: min support");
+  app.add_option("--line-ambiguity", matcher.max_line_ambiguity,
+                 "lines: no match when a distinct runner-up has this fraction of the support");
+  app.add_option("--line-compact", matcher.lines.max_compact_length_m,
+                 "lines: compact objects up to this long m");
   app.add_flag("--track", over_time.track,
                "--over-time: accept a transform only after it won repeatedly (MatchTracker)");
   app.add_option("--track-votes", over_time.tracker.min_votes, "tracker: wins needed");
   app.add_option("--track-dominance", over_time.tracker.dominance,
                  "tracker: votes over every other track's");
   CLI11_PARSE(app, argc, argv);
+  if (corner_min_deg > 0) matcher.lines.min_corner_angle_rad = corner_min_deg * std::numbers::pi / 180;
+  if (line_angle_deg > 0) matcher.lines.angle_tolerance_rad = line_angle_deg * std::numbers::pi / 180;
   if (affinity == "paper") matcher.affinity = draco::objects::AffinityForm::kPaper;
   if (affinity == "relative") matcher.affinity = draco::objects::AffinityForm::kRelative;
   if (affinity == "code") matcher.affinity = draco::objects::AffinityForm::kCode;
@@ -226,7 +250,7 @@ int main(int argc, char** argv) {
     if (over_time_s > 0) {
       std::string ot_csv =
           "own,teammate,time_s,own_objects,teammate_objects,shared_objects,status,inliers,err_m,"
-          "err_deg,correct\n";
+          "err_deg,correct,true_support,true_line_support\n";
       int pairs_right = 0, pairs_wrong = 0, answers = 0, answers_right = 0;
       int steps = 0, eligible = 0, eligible_right = 0, eligible_wrong = 0;
       std::printf("\ntime-consistent matching every %.0f s (own <- teammate):\n", over_time_s);
@@ -249,11 +273,12 @@ int main(int argc, char** argv) {
             max_shared = std::max(max_shared, m.shared);
             if (m.correct && first_right < 0) first_right = m.time_s;
             char line[256];
-            std::snprintf(line, sizeof(line), "%s,%s,%.1f,%d,%d,%d,%s,%d,%.3f,%.3f,%d\n",
+            std::snprintf(line, sizeof(line), "%s,%s,%.1f,%d,%d,%d,%s,%d,%.3f,%.3f,%d,%d,%d\n",
                           robots[ia].name.c_str(), robots[ib].name.c_str(), m.time_s, m.objects_a,
                           m.objects_b, m.shared, draco::msgs::MatchStatusName(m.match.status),
                           m.match.num_inliers, m.matched ? m.err_m : -1.0,
-                          m.matched ? m.err_deg : -1.0, m.correct ? 1 : 0);
+                          m.matched ? m.err_deg : -1.0, m.correct ? 1 : 0, m.true_support,
+                          m.true_line_support);
             ot_csv += line;
           }
           answers += matched;

@@ -307,6 +307,9 @@ std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
     m.err_m = std::hypot(d.x_m, d.y_m);
     m.err_deg = std::abs(d.yaw_rad) / kDeg;
     m.correct = m.matched && m.err_m <= 2.0 && m.err_deg <= 10.0;
+    const auto truth = objects::ScoreStructure(a, b, T_true, matcher.lines);
+    m.true_support = truth.support;
+    m.true_line_support = truth.line_support;
     out.push_back(m);
   }
   return out;

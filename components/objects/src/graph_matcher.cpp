@@ -2,6 +2,8 @@
 #include "draco/objects/graph_matcher.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -308,11 +310,9 @@ bool Better(const Hypothesis& x, const Hypothesis& y) {
   return x.score > y.score || (x.score == y.score && x.cost < y.cost);
 }
 
-}  // namespace
-
-msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
-                                  const MatcherOptions& options, const Coverage* coverage_a,
-                                  const Coverage* coverage_b) {
+msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
+                                const MatcherOptions& options, const Coverage* coverage_a,
+                                const Coverage* coverage_b) {
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
@@ -552,6 +552,53 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   match.num_inliers = static_cast<int>(pairs.size());
   match.rmse_m = std::sqrt(sum2 / double(pairs.size()));
   match.confidence = double(match.num_inliers) / double(std::min(na, nb));
+  return match;
+}
+
+}  // namespace
+
+msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
+                                  const MatcherOptions& options, const Coverage* coverage_a,
+                                  const Coverage* coverage_b) {
+  msgs::ObjectMatch spectral = MatchSpectral(a, b, options, coverage_a, coverage_b);
+  if (!options.structure_lines) return spectral;
+  const LineMatchResult lines =
+      MatchStructureLines(a, b, options.lines, options.distinct_m, options.distinct_rad);
+  if (std::getenv("DRACO_LINE_DEBUG"))
+    std::fprintf(stderr, "lines %d-%d: na %zu nb %zu corners %d/%d hyps %d best %d (lines %d) runner %d T %.2f %.2f %.1f\n",
+                 a.robot_id, b.robot_id, a.objects.size(), b.objects.size(), lines.num_corners_a,
+                 lines.num_corners_b, lines.num_hypotheses, lines.best.support,
+                 lines.best.line_support, lines.runner_up_support, lines.best.T_a_b.x_m,
+                 lines.best.T_a_b.y_m, lines.best.T_a_b.yaw_rad * 57.3);
+  if (!lines.found || lines.best.support < options.min_line_support) return spectral;
+  const bool spectral_ok = spectral.status == MatchStatus::kMatched;
+  if (spectral_ok &&
+      ScoreStructure(a, b, spectral.T_a_b, options.lines).support >= lines.best.support) {
+    return spectral;
+  }
+  msgs::ObjectMatch match = spectral;
+  match.ambiguity = std::max(0, lines.runner_up_support - 2) /
+                    std::max(1e-9, double(lines.best.support - 2));
+  if (options.max_line_ambiguity > 0.0 && match.ambiguity >= options.max_line_ambiguity) {
+    if (spectral_ok) return spectral;
+    match.status = MatchStatus::kAmbiguous;
+    return match;
+  }
+  match.status = MatchStatus::kMatched;
+  match.by_lines = true;
+  match.T_a_b = lines.best.T_a_b;
+  match.T_a_b.yaw_rad = NormalizeAngle(match.T_a_b.yaw_rad);
+  match.pairs.clear();
+  double sum2 = 0.0;
+  for (const auto& p : lines.best.pairs) {
+    match.pairs.push_back({a.objects[p.object_a].id, b.objects[p.object_b].id, p.residual_m});
+    sum2 += p.residual_m * p.residual_m;
+  }
+  match.num_inliers = static_cast<int>(match.pairs.size());
+  match.num_line_pairs = lines.best.line_support;
+  match.rmse_m = match.pairs.empty() ? 0.0 : std::sqrt(sum2 / double(match.pairs.size()));
+  const int n_min = std::max<int>(1, int(std::min(a.objects.size(), b.objects.size())));
+  match.confidence = std::min(1.0, double(match.num_inliers) / double(n_min));
   return match;
 }
 

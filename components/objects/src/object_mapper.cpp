@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -68,6 +69,113 @@ msgs::Object DescribeCluster(const std::vector<msgs::Point2>& points, bool recta
   return object;
 }
 
+std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::Point2>& points,
+                                                        const SegmentOptions& o) {
+  std::vector<std::vector<std::size_t>> segments;
+  if (points.empty() || !(o.inlier_m > 0.0) || !(o.angle_step_rad > 0.0)) return segments;
+  std::vector<std::size_t> left(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) left[i] = i;
+  double cx = 0.0, cy = 0.0;  // a local origin keeps the offsets small
+  for (const auto& p : points) cx += p.x_m, cy += p.y_m;
+  cx /= double(points.size());
+  cy /= double(points.size());
+  const int n_angles = std::max(1, static_cast<int>(std::ceil(std::numbers::pi / o.angle_step_rad)));
+  std::vector<int> votes;
+  while (static_cast<int>(segments.size()) < o.max_segments &&
+         static_cast<int>(left.size()) >= o.min_points) {
+    // 1. Hough vote: line normal angle t, offset r = (p - c) . n(t) in inlier_m bins.
+    double r_max = 0.0;
+    for (const std::size_t i : left) {
+      r_max = std::max(r_max, std::hypot(points[i].x_m - cx, points[i].y_m - cy));
+    }
+    const int n_r = static_cast<int>(std::ceil(2.0 * r_max / o.inlier_m)) + 2;
+    int best = -1, best_t = 0, best_r = 0;
+    votes.assign(std::size_t(n_r), 0);
+    for (int t = 0; t < n_angles; ++t) {
+      const double th = t * o.angle_step_rad, nx = std::cos(th), ny = std::sin(th);
+      std::fill(votes.begin(), votes.end(), 0);
+      for (const std::size_t i : left) {
+        const double r = (points[i].x_m - cx) * nx + (points[i].y_m - cy) * ny;
+        const int bin = static_cast<int>(std::floor((r + r_max) / o.inlier_m)) + 1;
+        ++votes[std::size_t(bin)];
+      }
+      for (int b = 0; b + 1 < n_r; ++b) {  // two adjacent bins: a line on a bin edge
+        const int v = votes[std::size_t(b)] + votes[std::size_t(b + 1)];
+        if (v > best) best = v, best_t = t, best_r = b;
+      }
+    }
+    if (best < o.min_points) break;
+    // 2. Inliers of the peak, then a least-squares line through them (principal axis).
+    const double th = best_t * o.angle_step_rad;
+    double nx = std::cos(th), ny = std::sin(th);
+    double r0 = (best_r + 0.0) * o.inlier_m - r_max;  // the two bins span [r0, r0 + 2 inlier_m)
+    double mx = 0.0, my = 0.0;
+    std::vector<std::size_t> in;
+    for (const std::size_t i : left) {
+      const double r = (points[i].x_m - cx) * nx + (points[i].y_m - cy) * ny;
+      if (r >= r0 - 1e-9 && r < r0 + 2.0 * o.inlier_m) in.push_back(i);
+    }
+    for (int refit = 0; refit < 2 && in.size() >= 2; ++refit) {
+      mx = my = 0.0;
+      for (const std::size_t i : in) mx += points[i].x_m, my += points[i].y_m;
+      mx /= double(in.size());
+      my /= double(in.size());
+      double sxx = 0.0, syy = 0.0, sxy = 0.0;
+      for (const std::size_t i : in) {
+        const double dx = points[i].x_m - mx, dy = points[i].y_m - my;
+        sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
+      }
+      const double dir = 0.5 * std::atan2(2.0 * sxy, sxx - syy);  // principal direction
+      nx = -std::sin(dir);
+      ny = std::cos(dir);
+      in.clear();
+      for (const std::size_t i : left) {
+        const double r = (points[i].x_m - mx) * nx + (points[i].y_m - my) * ny;
+        if (std::abs(r) <= o.inlier_m) in.push_back(i);
+      }
+    }
+    // 3. Longest run along the line without a gap over max_gap_m.
+    const double dx = ny, dy = -nx;  // direction along the line
+    std::sort(in.begin(), in.end(), [&](std::size_t u, std::size_t v) {
+      const double su = points[u].x_m * dx + points[u].y_m * dy;
+      const double sv = points[v].x_m * dx + points[v].y_m * dy;
+      return su < sv || (su == sv && u < v);
+    });
+    std::size_t run_begin = 0, best_begin = 0, best_end = 0;
+    double best_len = -1.0;
+    for (std::size_t k = 0; k <= in.size(); ++k) {
+      const bool cut =
+          k == in.size() ||
+          (k > 0 && (points[in[k]].x_m - points[in[k - 1]].x_m) * dx +
+                            (points[in[k]].y_m - points[in[k - 1]].y_m) * dy >
+                        o.max_gap_m);
+      if (!cut) continue;
+      if (k > run_begin) {
+        const double len = (points[in[k - 1]].x_m - points[in[run_begin]].x_m) * dx +
+                           (points[in[k - 1]].y_m - points[in[run_begin]].y_m) * dy;
+        if (len > best_len) best_len = len, best_begin = run_begin, best_end = k;
+      }
+      run_begin = k;
+    }
+    if (best_len < o.min_length_m || static_cast<int>(best_end - best_begin) < o.min_points) {
+      // The strongest line is too short or broken up: remove its points and look further.
+      if (in.empty()) break;
+      std::vector<char> drop(points.size(), 0);
+      for (const std::size_t i : in) drop[i] = 1;
+      std::erase_if(left, [&](std::size_t i) { return drop[i] != 0; });
+      continue;
+    }
+    std::vector<std::size_t> segment(in.begin() + std::ptrdiff_t(best_begin),
+                                     in.begin() + std::ptrdiff_t(best_end));
+    std::vector<char> drop(points.size(), 0);
+    for (const std::size_t i : segment) drop[i] = 1;
+    std::erase_if(left, [&](std::size_t i) { return drop[i] != 0; });
+    std::sort(segment.begin(), segment.end());
+    segments.push_back(std::move(segment));
+  }
+  return segments;
+}
+
 msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) const {
   std::map<int, std::vector<std::size_t>> members;  // by id: sorted output
   for (std::size_t i = 0; i < dbscan_.size(); ++i) {
@@ -90,12 +198,37 @@ msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) const {
     }
     msgs::Object object = DescribeCluster(points, options_.rectangle_center);
     if (object.length_m < options_.min_length_m) continue;
+    if (options_.split_min_length_m > 0.0 && object.length_m >= options_.split_min_length_m &&
+        object.length_m < options_.split_max_aspect * object.breadth_m && id < (1 << 16)) {
+      const auto segments = SplitIntoSegments(points, options_.segments);
+      if (!segments.empty()) {
+        std::vector<msgs::Point2> seg_points;
+        for (std::size_t k = 0; k < segments.size(); ++k) {
+          seg_points.clear();
+          std::vector<int> seg_keyframes;
+          for (const std::size_t j : segments[k]) {
+            seg_points.push_back(points[j]);
+            seg_keyframes.push_back(point_keyframe_[idx[j]]);
+          }
+          msgs::Object seg = DescribeCluster(seg_points, options_.rectangle_center);
+          std::sort(seg_keyframes.begin(), seg_keyframes.end());
+          seg_keyframes.erase(std::unique(seg_keyframes.begin(), seg_keyframes.end()),
+                              seg_keyframes.end());
+          seg.id = static_cast<std::uint32_t>(((k + 1) << 16) | std::size_t(id));
+          seg.keyframes = std::move(seg_keyframes);
+          map.objects.push_back(std::move(seg));
+        }
+        continue;
+      }
+    }
     std::sort(keyframes.begin(), keyframes.end());
     keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
     object.id = static_cast<std::uint32_t>(id);
     object.keyframes = std::move(keyframes);
     map.objects.push_back(std::move(object));
   }
+  std::sort(map.objects.begin(), map.objects.end(),
+            [](const msgs::Object& x, const msgs::Object& y) { return x.id < y.id; });
   return map;
 }
 

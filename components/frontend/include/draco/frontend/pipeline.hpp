@@ -115,6 +115,9 @@ struct TimedMatch {
   msgs::ObjectMatch match;
   bool matched = false, correct = false;
   double err_m = 0.0, err_deg = 0.0;
+  // Support of the true transform under the structure-line scoring (matcher.lines): what the
+  // maps hold for a matcher to find (lines + compact objects, and lines alone).
+  int true_support = 0, true_line_support = 0;
 };
 // Coverage of a robot's keyframes (map frame) with time_s <= until_s (negative evidence).
 objects::Coverage KeyframeCoverage(const Robot& r, const objects::CoverageOptions& options,

@@ -65,6 +65,10 @@ struct ObjectMatch {
   // Support of the best hypothesis distinct from the winner over the winner's, each beyond a
   // two-point sample (0: none; graph_matcher.hpp).
   double ambiguity = 0.0;
+  // Answer of the structure-line path (graph_matcher.hpp): pairs of long objects whose axes
+  // coincide (their residual is the lateral offset) among the pairs.
+  bool by_lines = false;
+  int num_line_pairs = 0;
 };
 
 inline const char* MatchStatusName(MatchStatus status) {

@@ -21,6 +21,7 @@
 
 #include "draco/msgs/objects.hpp"
 #include "draco/objects/geometry.hpp"
+#include "draco/objects/structure_lines.hpp"
 
 namespace draco::objects {
 
@@ -81,6 +82,15 @@ struct MatcherOptions {
   // random pairs when there are more), scored on all objects.
   int verify_candidates = 3;
   int verify_iterations = 2000;
+  // Structure lines (structure_lines.hpp): hypotheses from the corners of long objects' axes,
+  // scored by lines and compact objects that land on the other map's; the answer is the
+  // better supported of this path and the spectral one. It needs min_line_support pairs, and
+  // no distinct runner-up with max_line_ambiguity of the winner's support beyond the corner's
+  // two lines (0: no ambiguity test).
+  bool structure_lines = false;
+  StructureLineOptions lines;
+  int min_line_support = 5;
+  double max_line_ambiguity = 0.8;
 };
 
 // The area a robot's sonar observed, in its map frame, as a grid of cells (negative evidence:

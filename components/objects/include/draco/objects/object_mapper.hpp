@@ -18,6 +18,20 @@ namespace draco::objects {
 
 using msgs::Pose2;
 
+// Straight segments in a set of points, strongest first: the line with the most points within
+// inlier_m (a Hough vote over angle_step_rad x inlier_m bins, refined by a least-squares fit
+// of its inliers), cut at gaps longer than max_gap_m, the longest run kept when it is at least
+// min_length_m long with min_points points; its points are removed and the search repeats
+// (at most max_segments). Each result lists the indices of its points.
+struct SegmentOptions {
+  double inlier_m = 0.6;
+  double angle_step_rad = 0.0349;  // 2 deg
+  double max_gap_m = 3.0;
+  double min_length_m = 6.0;
+  int min_points = 20;
+  int max_segments = 8;
+};
+
 struct ObjectMapperOptions {
   DbscanOptions dbscan;  // eps 1.5 m, min points 20
   int min_points = 20;   // n_min: clusters with fewer points are dropped
@@ -26,6 +40,14 @@ struct ObjectMapperOptions {
   double min_length_m = 1.0;
   bool rectangle_center = false;  // centre = rectangle centre (false: mean of the points,
                                   // as the reference)
+  // Structures as lines (off when split_min_length_m is 0): a cluster at least this long whose
+  // rectangle is not slender (length < split_max_aspect * breadth: an L-shaped pier, a pier
+  // with its boats) is described by the straight segments found in its points instead (each
+  // an object of id (k + 1) << 16 | cluster id); a cluster with no segment stays whole. See
+  // SplitIntoSegments.
+  double split_min_length_m = 0.0;
+  double split_max_aspect = 3.0;
+  SegmentOptions segments;
   // UpdatePoses re-clusters when a keyframe moved more than this.
   double move_translation_m = 0.05;
   double move_rotation_rad = 0.002;
@@ -69,6 +91,9 @@ class ObjectMapper {
   std::vector<int> point_keyframe_;  // keyframe index of every point
   int num_reclusters_ = 0;
 };
+
+std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::Point2>& points,
+                                                        const SegmentOptions& options = {});
 
 // One object from a cluster's points (rectangle, centre, count; id and keyframes unset).
 msgs::Object DescribeCluster(const std::vector<msgs::Point2>& points, bool rectangle_center);
