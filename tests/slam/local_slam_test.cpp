@@ -277,6 +277,17 @@ TEST(LandmarkObservations, KeepsCompactIsolatedClustersOnly) {
   EXPECT_NEAR(z[0].cov_xx, 0.045 + 0.09, 1e-9);
   EXPECT_NEAR(z[0].cov_yy, 0.045 + 0.09, 1e-9);
   EXPECT_NEAR(z[0].cov_xy, 0.0, 1e-9);
+  // Near-face correction: the boulder is 10 m straight ahead (ray +x), extent 0.6 m.
+  LocalSlamOptions face = o;
+  face.landmark_center_offset_ratio = 0.5;
+  face.landmark_range_sigma_ratio = 2.0;
+  const auto zf = ExtractLandmarkObservations(scan, face);
+  ASSERT_EQ(zf.size(), 1u);
+  EXPECT_NEAR(zf[0].p_kf.x_m, 10.0 + 0.5 * 0.3, 1e-9);
+  EXPECT_NEAR(zf[0].p_kf.y_m, 0.0, 1e-9);
+  EXPECT_NEAR(zf[0].cov_xx, 0.045 + 0.09 + 0.36, 1e-9);  // (2 * 0.3)^2 along the ray
+  EXPECT_NEAR(zf[0].cov_yy, 0.045 + 0.09, 1e-9);
+  EXPECT_NEAR(zf[0].cov_xy, 0.0, 1e-9);
   // Without the isolation test the two piles count as well.
   o.landmark_isolation_m = 0.0;
   EXPECT_EQ(ExtractLandmarkObservations(scan, o).size(), 3u);

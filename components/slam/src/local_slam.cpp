@@ -178,6 +178,17 @@ std::vector<LandmarkObservation> ExtractLandmarkObservations(
     }
     z.cov_xx += floor2;
     z.cov_yy += floor2;
+    // Near-face bias: the object's centre lies behind the centroid, along the ray.
+    const double range = std::hypot(cx, cy);
+    if (range > 1e-6) {
+      const double ux = cx / range, uy = cy / range, half = 0.5 * z.extent_m;
+      z.p_kf.x_m += o.landmark_center_offset_ratio * half * ux;
+      z.p_kf.y_m += o.landmark_center_offset_ratio * half * uy;
+      const double var = std::pow(o.landmark_range_sigma_ratio * half, 2);
+      z.cov_xx += var * ux * ux;
+      z.cov_xy += var * ux * uy;
+      z.cov_yy += var * uy * uy;
+    }
     out.push_back(z);
   }
   return out;

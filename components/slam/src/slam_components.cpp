@@ -124,6 +124,11 @@ class LocalSlamComponent final : public graph::Component {
                 .min = 0});
     spec.Param("landmark_min_observations", &o_.landmark_min_observations,
                {.doc = "sightings a landmark needs before it constrains", .min = 1});
+    spec.Param("landmark_center_offset_ratio", &o_.landmark_center_offset_ratio,
+               {.doc = "landmark centroid moved away from the sonar by this * extent / 2",
+                .min = 0});
+    spec.Param("landmark_range_sigma_ratio", &o_.landmark_range_sigma_ratio,
+               {.doc = "landmark sigma along the ray: this * extent / 2", .min = 0});
     spec.Param("landmark_cauchy_scale", &o_.landmark_cauchy_scale,
                {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
   }

@@ -102,6 +102,15 @@ struct LocalSlamOptions {
   int landmark_min_index_gap = 8;
   int landmark_min_observations = 3;
   double landmark_cauchy_scale = 2.0;  // in sigmas; 0: no robust loss
+  // The sonar sees the near face of an object, so a cluster's centroid lies in front of the
+  // object's centre by up to its radius (about extent / 2), towards the sonar: from opposite
+  // lanes the two centroids differ by up to the diameter. The centroid is moved along the
+  // ray away from the sonar by landmark_center_offset_ratio * extent / 2 (the centroid of a
+  // lit half circle is 2/pi = 0.64 radii in front of the centre), and
+  // (landmark_range_sigma_ratio * extent / 2)^2 is added to the variance along the ray
+  // (0: off, both).
+  double landmark_center_offset_ratio = 0.0;
+  double landmark_range_sigma_ratio = 0.0;
 
   int window_size = 20;  // incremental solve window (newest keyframes)
 };
