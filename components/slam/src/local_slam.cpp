@@ -228,6 +228,7 @@ struct LocalSlam::Impl {
   struct Landmark {
     std::vector<LandmarkSighting> sightings;
     bool in_graph = false;
+    bool unstable = false;
   };
   std::vector<Landmark> landmarks;
 
@@ -311,6 +312,24 @@ struct LocalSlam::Impl {
                                   : pg::RobustLoss{});
   }
 
+  // Whether sighting s agrees with the earlier sightings of its pass (see the options).
+  bool StableInPass(const Landmark& l, const LandmarkSighting& s) const {
+    double x = 0.0, y = 0.0;
+    int n = 0, next = s.keyframe;
+    for (auto it = l.sightings.rbegin(); it != l.sightings.rend(); ++it) {
+      if (next - it->keyframe > options.landmark_pass_gap) break;
+      const pg::Point2 p =
+          pg::Transform(graph.Pose(it->keyframe), {it->z.p_kf.x_m, it->z.p_kf.y_m});
+      x += p.x_m;
+      y += p.y_m;
+      ++n;
+      next = it->keyframe;
+    }
+    if (n == 0) return true;  // the first sighting of a pass
+    const pg::Point2 p = pg::Transform(graph.Pose(s.keyframe), {s.z.p_kf.x_m, s.z.p_kf.y_m});
+    return std::hypot(p.x_m - x / n, p.y_m - y / n) <= options.landmark_max_pass_spread_m;
+  }
+
   // Associates keyframe k's landmark observations (see LocalSlamOptions) by the current
   // estimate and adds the constraints of landmarks that are informative enough.
   void ObserveLandmarks(int k) {
@@ -355,6 +374,11 @@ struct LocalSlam::Impl {
       }
       const std::size_t id = static_cast<std::size_t>(match[b]);
       Landmark& l = landmarks[id];
+      if (l.unstable) continue;
+      if (o.landmark_max_pass_spread_m > 0 && !StableInPass(l, sighting)) {
+        l.unstable = true;
+        continue;
+      }
       l.sightings.push_back(sighting);
       if (l.in_graph) {
         AddLandmarkFactor(id, sighting);
@@ -564,7 +588,7 @@ std::vector<LandmarkRecord> LocalSlam::Landmarks() const {
     const auto& l = impl_->landmarks[id];
     out.push_back({static_cast<int>(id), impl_->LandmarkPosition(id),
                    static_cast<int>(l.sightings.size()), l.sightings.front().keyframe,
-                   l.sightings.back().keyframe, l.in_graph});
+                   l.sightings.back().keyframe, l.in_graph, l.unstable});
   }
   return out;
 }

@@ -129,6 +129,12 @@ class LocalSlamComponent final : public graph::Component {
                 .min = 0});
     spec.Param("landmark_range_sigma_ratio", &o_.landmark_range_sigma_ratio,
                {.doc = "landmark sigma along the ray: this * extent / 2", .min = 0});
+    spec.Param("landmark_max_pass_spread_m", &o_.landmark_max_pass_spread_m,
+               {.doc = "landmark unstable when a sighting strays this far within a pass (0: off)",
+                .unit = "m",
+                .min = 0});
+    spec.Param("landmark_pass_gap", &o_.landmark_pass_gap,
+               {.doc = "sightings at most this many keyframes apart form one pass", .min = 1});
     spec.Param("landmark_cauchy_scale", &o_.landmark_cauchy_scale,
                {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
   }
@@ -197,12 +203,12 @@ class LocalSlamComponent final : public graph::Component {
       pcd += line;
     }
     if (o_.landmarks) {
-      std::string csv = "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph\n";
+      std::string csv = "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph,unstable\n";
       for (const auto& l : slam_.Landmarks()) {
         char line[160];
-        std::snprintf(line, sizeof(line), "%d,%.3f,%.3f,%d,%d,%d,%d\n", l.id, l.p_map.x_m,
+        std::snprintf(line, sizeof(line), "%d,%.3f,%.3f,%d,%d,%d,%d,%d\n", l.id, l.p_map.x_m,
                       l.p_map.y_m, l.num_observations, l.first_keyframe, l.last_keyframe,
-                      l.in_graph ? 1 : 0);
+                      l.in_graph ? 1 : 0, l.unstable ? 1 : 0);
         csv += line;
       }
       if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, "landmarks.csv"), csv)) {

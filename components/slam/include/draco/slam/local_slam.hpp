@@ -111,6 +111,13 @@ struct LocalSlamOptions {
   // (0: off, both).
   double landmark_center_offset_ratio = 0.0;
   double landmark_range_sigma_ratio = 0.0;
+  // Viewpoint stability: within one pass (sightings at most landmark_pass_gap keyframes
+  // apart) the relative poses are good, so the sightings of a point-like object agree; a
+  // sighting farther than landmark_max_pass_spread_m from the mean of the earlier sightings of
+  // its pass (map frame, current estimates) marks the landmark unstable (an extended or
+  // partly seen object, or two objects): it takes no further part (0: no test).
+  double landmark_max_pass_spread_m = 0.0;
+  int landmark_pass_gap = 3;
 
   int window_size = 20;  // incremental solve window (newest keyframes)
 };
@@ -134,6 +141,7 @@ struct LandmarkRecord {
   int first_keyframe = 0;
   int last_keyframe = 0;
   bool in_graph = false;
+  bool unstable = false;  // failed the viewpoint-stability test
 };
 
 struct KeyframeEstimate {
