@@ -171,7 +171,7 @@ TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   std::mt19937 rng(4);
   const World world = MakeWorld(rng);
   const Mission mission = MakeMission(world, rng);
-  LocalSlam slam(LocalSlamOptions{.loop_closure = false});
+  LocalSlam slam(LocalSlamOptions{.loop_closure = false, .landmarks = false});
   for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
   // Only dead-reckoning factors: the estimate is dead reckoning.
   const auto t = slam.Trajectory();
@@ -238,6 +238,7 @@ TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
   const Mission mission = MakeMission(world, rng);
   LocalSlamOptions o;
   o.loop_closure = false;
+  o.landmarks = false;
   o.heading_bias_sigma_rad = 0.15;
   LocalSlam slam(o);
   for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
@@ -266,7 +267,9 @@ TEST(LandmarkObservations, KeepsCompactIsolatedClustersOnly) {
   for (int k = 0; k < 13; ++k) scan.push_back({-10.0, -20.0 + 0.5 * k});
   scan.push_back({20.0, 20.0});
   scan.push_back({20.3, 20.0});
-  LocalSlamOptions o;  // radius 1 m, >= 3 points, extent <= 2.5 m, isolation 5 m, floor 0.3 m
+  LocalSlamOptions o;  // radius 1 m, >= 3 points, extent <= 2.5 m
+  o.landmark_isolation_m = 5.0;
+  o.landmark_min_sigma_m = 0.3;
   const auto z = ExtractLandmarkObservations(scan, o);
   ASSERT_EQ(z.size(), 1u);
   EXPECT_NEAR(z[0].p_kf.x_m, 10.0, 1e-9);
@@ -369,6 +372,7 @@ TEST(LocalSlam, LandmarksSeenFromAdjacentLanesRemoveDrift) {
   const auto& boulders = mission.boulders;
   LocalSlamOptions without;
   without.loop_closure = false;
+  without.landmarks = false;
   LocalSlamOptions with = without;
   with.landmarks = true;
   LocalSlam a(without), b(with);
@@ -382,7 +386,7 @@ TEST(LocalSlam, LandmarksSeenFromAdjacentLanesRemoveDrift) {
   std::printf("dead reckoning ATE %.2f m, with landmarks %.2f m\n", dr_ate, lm_ate);
   EXPECT_GT(dr_ate, 2.0);
   EXPECT_LT(lm_ate, 0.3 * dr_ate);
-  // Each boulder became one landmark, seen from its two lanes, at its true position (the map
+  // Each boulder became one landmark, seen from its two lanes, near its true position (the map
   // frame is the truth's: keyframe 0 is at its true pose).
   int in_graph = 0;
   for (const auto& l : b.Landmarks()) {
@@ -392,7 +396,7 @@ TEST(LocalSlam, LandmarksSeenFromAdjacentLanesRemoveDrift) {
     for (const auto& p : boulders) {
       nearest = std::min(nearest, std::hypot(p.x_m - l.p_map.x_m, p.y_m - l.p_map.y_m));
     }
-    EXPECT_LT(nearest, 1.0) << "landmark " << l.id;
+    EXPECT_LT(nearest, 1.5) << "landmark " << l.id;  // 0.15 m ATE, 0.5 m sigma floor
     EXPECT_GT(l.last_keyframe - l.first_keyframe, 20) << "landmark " << l.id;
   }
   EXPECT_GE(in_graph, 8);
@@ -412,6 +416,7 @@ TEST(LocalSlam, ViewpointStabilityRejectsABodyFixedArtefact) {
   LocalSlam stable(o);
   LocalSlamOptions dr_only;
   dr_only.loop_closure = false;
+  dr_only.landmarks = false;
   LocalSlam dr(dr_only);
   for (const auto& kf : mission.keyframes) {
     plain.AddKeyframe(kf, nullptr);
@@ -434,7 +439,7 @@ TEST(LocalSlam, ViewpointStabilityRejectsABodyFixedArtefact) {
     for (const auto& p : mission.boulders) {
       nearest = std::min(nearest, std::hypot(p.x_m - l.p_map.x_m, p.y_m - l.p_map.y_m));
     }
-    EXPECT_LT(nearest, 1.0) << "landmark " << l.id;
+    EXPECT_LT(nearest, 1.5) << "landmark " << l.id;  // 0.15 m ATE, 0.5 m sigma floor
   }
   EXPECT_GE(unstable, 1);
 }
@@ -481,7 +486,7 @@ TEST(LocalSlamComponent, WritesItsOutputsOnStop) {
     h.Stop();
   }
   for (const char* name : {"trajectory.tum", "dead_reckoning.tum", "pose_graph.g2o",
-                           "intra_loops.csv", "map.ply", "map.pcd"}) {
+                           "intra_loops.csv", "map.ply", "map.pcd", "landmarks.csv"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / (std::string("r.") + name))) << name;
   }
   std::ifstream pcd(dir / "r.map.pcd");

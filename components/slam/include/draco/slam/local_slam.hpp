@@ -76,7 +76,8 @@ struct LocalSlamOptions {
   // Source: keyframe k and this many keyframes before it, in k's frame (0: keyframe k only).
   int loop_source_half_width = 0;
 
-  // Sparse point landmarks (off by default): small isolated objects (boulders, debris) give a
+  // Sparse point landmarks (on by default since docs/local-slam.md "Sparse point landmarks":
+  // every robot of both default missions better): small isolated objects (boulders, debris) give a
   // few CFAR points per keyframe, too few for ICP, but their centroid is a point landmark
   // seen from many keyframes and from opposite lanes. Per keyframe, points are clustered by
   // single linkage (landmark_cluster_radius_m); a cluster with at least landmark_min_points
@@ -90,12 +91,12 @@ struct LocalSlamOptions {
   // onto one landmark) the cluster is dropped. A landmark enters the graph (point node,
   // observations with a Cauchy loss) once its observations span landmark_min_index_gap
   // keyframes and number landmark_min_observations.
-  bool landmarks = false;
+  bool landmarks = true;
   double landmark_cluster_radius_m = 1.0;
   int landmark_min_points = 3;
   double landmark_max_extent_m = 2.5;
-  double landmark_isolation_m = 5.0;
-  double landmark_min_sigma_m = 0.3;
+  double landmark_isolation_m = 3.0;  // 2 m lets the airplane's debris field alias
+  double landmark_min_sigma_m = 0.5;
   double landmark_max_range_m = 0.0;  // ignore clusters farther from the sonar (0: no limit)
   double landmark_gate_m = 3.0;
   double landmark_new_min_distance_m = 6.0;
