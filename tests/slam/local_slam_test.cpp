@@ -319,8 +319,8 @@ LaneMission MakeLaneMission(bool with_artefact) {
   std::vector<msgs::Point2> world;
   for (const auto& b : boulders) {
     for (int k = 0; k < 5; ++k) {
-      world.push_back({b.x_m + 0.4 * std::cos(k * 2 * M_PI / 5),
-                       b.y_m + 0.4 * std::sin(k * 2 * M_PI / 5)});
+      world.push_back(
+          {b.x_m + 0.4 * std::cos(k * 2 * M_PI / 5), b.y_m + 0.4 * std::sin(k * 2 * M_PI / 5)});
     }
   }
   std::vector<msgs::Pose2> truth;

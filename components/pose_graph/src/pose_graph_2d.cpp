@@ -158,7 +158,8 @@ struct PoseGraph2d::Impl {
   void RequireFactors(PoseId id) const {
     const std::size_t k = Index(id);
     const Node& node = nodes[k];
-    if (node.factors.empty() && node.observations.empty() && !node.constant && !(NeedsAutoGauge() && k == 0)) {
+    if (node.factors.empty() && node.observations.empty() && !node.constant &&
+        !(NeedsAutoGauge() && k == 0)) {
       throw std::runtime_error("covariance: pose " + std::to_string(id) + " has no factor");
     }
   }

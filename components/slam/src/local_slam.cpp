@@ -304,12 +304,11 @@ struct LocalSlam::Impl {
     const double det = z.cov_xx * z.cov_yy - z.cov_xy * z.cov_xy;
     const pg::Matrix2 information = {z.cov_yy / det, -z.cov_xy / det, -z.cov_xy / det,
                                      z.cov_xx / det};
-    graph.AddPointObservation(s.keyframe, static_cast<pg::PointId>(id), {z.p_kf.x_m, z.p_kf.y_m},
-                              information,
-                              options.landmark_cauchy_scale > 0
-                                  ? pg::RobustLoss{pg::LossKind::kCauchy,
-                                                   options.landmark_cauchy_scale}
-                                  : pg::RobustLoss{});
+    graph.AddPointObservation(
+        s.keyframe, static_cast<pg::PointId>(id), {z.p_kf.x_m, z.p_kf.y_m}, information,
+        options.landmark_cauchy_scale > 0
+            ? pg::RobustLoss{pg::LossKind::kCauchy, options.landmark_cauchy_scale}
+            : pg::RobustLoss{});
   }
 
   // Whether sighting s agrees with the earlier sightings of its pass (see the options).

@@ -31,7 +31,8 @@ class LocalSlamComponent final : public graph::Component {
   void Declare(Spec& spec) override {
     spec.Doc(
         "Local SLAM back end: keyframes and sequential factors into a Ceres SE(2) pose graph, "
-        "intra-robot loop closures (ICP + PCM); writes trajectory, graph, loops and map.");
+        "intra-robot loop closures (ICP + PCM), sparse point landmarks; writes trajectory, "
+        "graph, loops, landmarks and map.");
     keyframe_ = spec.Input<msgs::Keyframe>("keyframe", {.depth = 256, .doc = "keyframes"});
     factor_ = spec.Input<msgs::SequentialFactor>(
         "factor", {.depth = 256,
@@ -113,20 +114,21 @@ class LocalSlamComponent final : public graph::Component {
                 .min = 0});
     spec.Param("landmark_min_sigma_m", &o_.landmark_min_sigma_m,
                {.doc = "sigma added to a landmark observation's spread", .unit = "m", .min = 1e-3});
-    spec.Param("landmark_max_range_m", &o_.landmark_max_range_m,
-               {.doc = "ignore landmark clusters farther away (0: no limit)", .unit = "m", .min = 0});
+    spec.Param(
+        "landmark_max_range_m", &o_.landmark_max_range_m,
+        {.doc = "ignore landmark clusters farther away (0: no limit)", .unit = "m", .min = 0});
     spec.Param("landmark_gate_m", &o_.landmark_gate_m,
                {.doc = "association distance to a landmark's estimate", .unit = "m", .min = 0});
     spec.Param("landmark_new_min_distance_m", &o_.landmark_new_min_distance_m,
                {.doc = "no landmark within this distance for a new one", .unit = "m", .min = 0});
-    spec.Param("landmark_min_index_gap", &o_.landmark_min_index_gap,
-               {.doc = "keyframes a landmark's sightings must span before it constrains",
-                .min = 0});
+    spec.Param(
+        "landmark_min_index_gap", &o_.landmark_min_index_gap,
+        {.doc = "keyframes a landmark's sightings must span before it constrains", .min = 0});
     spec.Param("landmark_min_observations", &o_.landmark_min_observations,
                {.doc = "sightings a landmark needs before it constrains", .min = 1});
-    spec.Param("landmark_center_offset_ratio", &o_.landmark_center_offset_ratio,
-               {.doc = "landmark centroid moved away from the sonar by this * extent / 2",
-                .min = 0});
+    spec.Param(
+        "landmark_center_offset_ratio", &o_.landmark_center_offset_ratio,
+        {.doc = "landmark centroid moved away from the sonar by this * extent / 2", .min = 0});
     spec.Param("landmark_range_sigma_ratio", &o_.landmark_range_sigma_ratio,
                {.doc = "landmark sigma along the ray: this * extent / 2", .min = 0});
     spec.Param("landmark_max_pass_spread_m", &o_.landmark_max_pass_spread_m,
@@ -135,8 +137,9 @@ class LocalSlamComponent final : public graph::Component {
                 .min = 0});
     spec.Param("landmark_pass_gap", &o_.landmark_pass_gap,
                {.doc = "sightings at most this many keyframes apart form one pass", .min = 1});
-    spec.Param("landmark_cauchy_scale", &o_.landmark_cauchy_scale,
-               {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
+    spec.Param(
+        "landmark_cauchy_scale", &o_.landmark_cauchy_scale,
+        {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
   }
   Status Start(Context&) override {
     slam_ = LocalSlam(o_);

@@ -2,6 +2,8 @@
 // keyframes and sequential scan-matching factors go into a Ceres SE(2) pose graph; intra-robot
 // loop closures are proposed from the current estimate, registered by ICP against a submap,
 // checked for pairwise consistency (PCM over the odometry chain) and added with a robust loss.
+// Compact isolated clusters of keyframe points (boulders, debris) become point landmarks in
+// the graph (docs/local-slam.md, "Sparse point landmarks").
 // No runtime dependency.
 #pragma once
 
@@ -125,7 +127,7 @@ struct LocalSlamOptions {
 
 // One point landmark candidate of a keyframe: a compact isolated cluster of its points.
 struct LandmarkObservation {
-  msgs::Point2 p_kf;                  // centroid, keyframe frame
+  msgs::Point2 p_kf;                                // centroid, keyframe frame
   double cov_xx = 0.0, cov_xy = 0.0, cov_yy = 0.0;  // m^2, floor included
   int num_points = 0;
   double extent_m = 0.0;
