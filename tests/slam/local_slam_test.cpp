@@ -171,7 +171,7 @@ TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   std::mt19937 rng(4);
   const World world = MakeWorld(rng);
   const Mission mission = MakeMission(world, rng);
-  LocalSlam slam(LocalSlamOptions{.loop_closure = false});
+  LocalSlam slam(LocalSlamOptions{.loop_closure = false, .landmarks = false});
   for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
   // Only dead-reckoning factors: the estimate is dead reckoning.
   const auto t = slam.Trajectory();
@@ -238,6 +238,7 @@ TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
   const Mission mission = MakeMission(world, rng);
   LocalSlamOptions o;
   o.loop_closure = false;
+  o.landmarks = false;
   o.heading_bias_sigma_rad = 0.15;
   LocalSlam slam(o);
   for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
@@ -250,6 +251,197 @@ TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
     EXPECT_NEAR(k.T_map_kf.y_m, k.T_odom_kf.y_m, 1e-2);
     EXPECT_NEAR(std::remainder(k.T_map_kf.yaw_rad - k.T_odom_kf.yaw_rad, 2 * M_PI), 0.0, 1e-3);
   }
+}
+
+TEST(LandmarkObservations, KeepsCompactIsolatedClustersOnly) {
+  std::vector<msgs::Point2> scan;
+  // A boulder: six points on a 0.3 m ring around (10, 0).
+  for (int k = 0; k < 6; ++k) {
+    scan.push_back({10.0 + 0.3 * std::cos(k * M_PI / 3), 0.3 * std::sin(k * M_PI / 3)});
+  }
+  // Two piles 2 m apart (each a compact cluster, neither isolated).
+  for (const double y : {8.0, 10.0}) {
+    for (int k = 0; k < 4; ++k) scan.push_back({0.2 * (k % 2), y + 0.2 * (k / 2)});
+  }
+  // A 6 m wall (too long) and a two-point speck (too few points), far from the rest.
+  for (int k = 0; k < 13; ++k) scan.push_back({-10.0, -20.0 + 0.5 * k});
+  scan.push_back({20.0, 20.0});
+  scan.push_back({20.3, 20.0});
+  LocalSlamOptions o;  // radius 1 m, >= 3 points, extent <= 2.5 m
+  o.landmark_isolation_m = 5.0;
+  o.landmark_min_sigma_m = 0.3;
+  const auto z = ExtractLandmarkObservations(scan, o);
+  ASSERT_EQ(z.size(), 1u);
+  EXPECT_NEAR(z[0].p_kf.x_m, 10.0, 1e-9);
+  EXPECT_NEAR(z[0].p_kf.y_m, 0.0, 1e-9);
+  EXPECT_EQ(z[0].num_points, 6);
+  EXPECT_NEAR(z[0].extent_m, 0.6, 1e-9);
+  // Spread of a ring of radius r: r^2 / 2 on each axis, no correlation; plus the floor.
+  EXPECT_NEAR(z[0].cov_xx, 0.045 + 0.09, 1e-9);
+  EXPECT_NEAR(z[0].cov_yy, 0.045 + 0.09, 1e-9);
+  EXPECT_NEAR(z[0].cov_xy, 0.0, 1e-9);
+  // Near-face correction: the boulder is 10 m straight ahead (ray +x), extent 0.6 m.
+  LocalSlamOptions face = o;
+  face.landmark_center_offset_ratio = 0.5;
+  face.landmark_range_sigma_ratio = 2.0;
+  const auto zf = ExtractLandmarkObservations(scan, face);
+  ASSERT_EQ(zf.size(), 1u);
+  EXPECT_NEAR(zf[0].p_kf.x_m, 10.0 + 0.5 * 0.3, 1e-9);
+  EXPECT_NEAR(zf[0].p_kf.y_m, 0.0, 1e-9);
+  EXPECT_NEAR(zf[0].cov_xx, 0.045 + 0.09 + 0.36, 1e-9);  // (2 * 0.3)^2 along the ray
+  EXPECT_NEAR(zf[0].cov_yy, 0.045 + 0.09, 1e-9);
+  EXPECT_NEAR(zf[0].cov_xy, 0.0, 1e-9);
+  // Without the isolation test the two piles count as well.
+  o.landmark_isolation_m = 0.0;
+  EXPECT_EQ(ExtractLandmarkObservations(scan, o).size(), 3u);
+  // A range limit of 9 m drops the boulder (10 m) and the far pile (10.1 m), keeps the near one.
+  o.landmark_max_range_m = 9.0;
+  EXPECT_EQ(ExtractLandmarkObservations(scan, o).size(), 1u);
+}
+
+// Lawnmower over flat ground with a few boulders between the lanes: the boulders are the only
+// returns (too few points for ICP); dead reckoning has a heading drift.
+struct LaneMission {
+  std::vector<msgs::Point2> boulders;
+  std::vector<msgs::Keyframe> keyframes;
+  eval::Trajectory truth;
+};
+
+// with_artefact: a compact cluster fixed in the body frame (10 m ahead, 6 m left) in every
+// keyframe, as a sonar artefact: no place in the world, but compact and isolated.
+LaneMission MakeLaneMission(bool with_artefact) {
+  LaneMission mission;
+  std::mt19937 rng(8);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<msgs::Point2>& boulders = mission.boulders;
+  for (int i = 0; i < 5; ++i) boulders.push_back({-24.0 + 12.0 * i, 6.0});
+  for (int i = 0; i < 5; ++i) boulders.push_back({-18.0 + 12.0 * i, 18.0});
+  std::vector<msgs::Point2> world;
+  for (const auto& b : boulders) {
+    for (int k = 0; k < 5; ++k) {
+      world.push_back(
+          {b.x_m + 0.4 * std::cos(k * 2 * M_PI / 5), b.y_m + 0.4 * std::sin(k * 2 * M_PI / 5)});
+    }
+  }
+  std::vector<msgs::Pose2> truth;
+  for (int lane = 0; lane < 3; ++lane) {
+    const double y = 12.0 * lane;
+    const bool east = lane % 2 == 0;
+    for (double d = 0; d <= 70.0; d += 2.5) {
+      truth.push_back({east ? -35.0 + d : 35.0 - d, y, east ? 0.0 : M_PI});
+    }
+    // Turn: two keyframes up the side.
+    for (const double dy : {4.0, 8.0}) truth.push_back({east ? 35.0 : -35.0, y + dy, M_PI / 2});
+  }
+  eval::Trajectory& gt = mission.truth;
+  std::vector<msgs::Keyframe>& keyframes = mission.keyframes;
+  msgs::Pose2 dr = truth[0];
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    msgs::Keyframe kf;
+    kf.index = static_cast<int>(i);
+    kf.time_s = 10.0 * i;
+    if (i > 0) {
+      msgs::Pose2 inc = Between(truth[i - 1], truth[i]);
+      inc.yaw_rad += 0.006 + 0.002 * n(rng);  // heading drift
+      kf.T_prevkf_kf = inc;
+      kf.covariance_prevkf_kf = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+      dr = Compose(dr, inc);
+    }
+    kf.T_odom_body = dr;
+    for (const auto& p : world) {  // 30 m range, +-65 deg, 5 cm noise
+      const msgs::Pose2 local = Between(truth[i], {p.x_m, p.y_m, 0});
+      const double r = std::hypot(local.x_m, local.y_m);
+      if (r > 30.0 || std::abs(std::atan2(local.y_m, local.x_m)) > 65 * M_PI / 180) continue;
+      kf.points_body.push_back({local.x_m + 0.05 * n(rng), local.y_m + 0.05 * n(rng)});
+    }
+    if (with_artefact) {
+      for (int k = 0; k < 4; ++k) {
+        kf.points_body.push_back({10.0 + 0.3 * (k % 2) + 0.05 * n(rng), 6.0 + 0.3 * (k / 2)});
+      }
+    }
+    keyframes.push_back(kf);
+    gt.push_back({kf.time_s, truth[i].x_m, truth[i].y_m, truth[i].yaw_rad});
+  }
+  return mission;
+}
+
+TEST(LocalSlam, LandmarksSeenFromAdjacentLanesRemoveDrift) {
+  const LaneMission mission = MakeLaneMission(false);
+  const auto& keyframes = mission.keyframes;
+  const auto& gt = mission.truth;
+  const auto& boulders = mission.boulders;
+  LocalSlamOptions without;
+  without.loop_closure = false;
+  without.landmarks = false;
+  LocalSlamOptions with = without;
+  with.landmarks = true;
+  LocalSlam a(without), b(with);
+  for (const auto& kf : keyframes) {
+    a.AddKeyframe(kf, nullptr);
+    b.AddKeyframe(kf, nullptr);
+  }
+  EXPECT_TRUE(a.Landmarks().empty());
+  const double dr_ate = eval::Ate(Estimates(a, false), gt).rmse_m;
+  const double lm_ate = eval::Ate(Estimates(b, false), gt).rmse_m;
+  std::printf("dead reckoning ATE %.2f m, with landmarks %.2f m\n", dr_ate, lm_ate);
+  EXPECT_GT(dr_ate, 2.0);
+  EXPECT_LT(lm_ate, 0.3 * dr_ate);
+  // Each boulder became one landmark, seen from its two lanes, near its true position (the map
+  // frame is the truth's: keyframe 0 is at its true pose).
+  int in_graph = 0;
+  for (const auto& l : b.Landmarks()) {
+    if (!l.in_graph) continue;
+    ++in_graph;
+    double nearest = 1e9;
+    for (const auto& p : boulders) {
+      nearest = std::min(nearest, std::hypot(p.x_m - l.p_map.x_m, p.y_m - l.p_map.y_m));
+    }
+    EXPECT_LT(nearest, 1.5) << "landmark " << l.id;  // 0.15 m ATE, 0.5 m sigma floor
+    EXPECT_GT(l.last_keyframe - l.first_keyframe, 20) << "landmark " << l.id;
+  }
+  EXPECT_GE(in_graph, 8);
+}
+
+TEST(LocalSlam, ViewpointStabilityRejectsABodyFixedArtefact) {
+  const LaneMission mission = MakeLaneMission(true);
+  LocalSlamOptions o;
+  o.loop_closure = false;
+  o.landmarks = true;
+  // A wide gate (as for a large drift) lets the artefact, 2.5 m further on at every keyframe,
+  // associate with itself.
+  o.landmark_gate_m = 10.0;
+  o.landmark_new_min_distance_m = 11.0;
+  LocalSlam plain(o);
+  o.landmark_max_pass_spread_m = 1.0;
+  LocalSlam stable(o);
+  LocalSlamOptions dr_only;
+  dr_only.loop_closure = false;
+  dr_only.landmarks = false;
+  LocalSlam dr(dr_only);
+  for (const auto& kf : mission.keyframes) {
+    plain.AddKeyframe(kf, nullptr);
+    stable.AddKeyframe(kf, nullptr);
+    dr.AddKeyframe(kf, nullptr);
+  }
+  const double dr_ate = eval::Ate(Estimates(dr, false), mission.truth).rmse_m;
+  const double plain_ate = eval::Ate(Estimates(plain, false), mission.truth).rmse_m;
+  const double stable_ate = eval::Ate(Estimates(stable, false), mission.truth).rmse_m;
+  std::printf("dead reckoning ATE %.2f m, landmarks %.2f m, with the stability test %.2f m\n",
+              dr_ate, plain_ate, stable_ate);
+  // The artefact is marked unstable at its second sighting (2.5 m from the first); every
+  // landmark left in the graph is a boulder, and they still remove the drift.
+  EXPECT_LT(stable_ate, 0.3 * dr_ate);
+  int unstable = 0;
+  for (const auto& l : stable.Landmarks()) {
+    unstable += l.unstable ? 1 : 0;
+    if (!l.in_graph) continue;
+    double nearest = 1e9;
+    for (const auto& p : mission.boulders) {
+      nearest = std::min(nearest, std::hypot(p.x_m - l.p_map.x_m, p.y_m - l.p_map.y_m));
+    }
+    EXPECT_LT(nearest, 1.5) << "landmark " << l.id;  // 0.15 m ATE, 0.5 m sigma floor
+  }
+  EXPECT_GE(unstable, 1);
 }
 
 TEST(LocalSlam, RejectsOutOfOrderKeyframes) {
@@ -294,7 +486,7 @@ TEST(LocalSlamComponent, WritesItsOutputsOnStop) {
     h.Stop();
   }
   for (const char* name : {"trajectory.tum", "dead_reckoning.tum", "pose_graph.g2o",
-                           "intra_loops.csv", "map.ply", "map.pcd"}) {
+                           "intra_loops.csv", "map.ply", "map.pcd", "landmarks.csv"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / (std::string("r.") + name))) << name;
   }
   std::ifstream pcd(dir / "r.map.pcd");

@@ -108,7 +108,14 @@ struct PoseGraph2d::Impl {
     PoseId id = 0;
     std::array<double, 3> x{};  // Ceres parameter block; the deque keeps its address stable
     std::vector<std::size_t> factors;
+    std::vector<std::size_t> observations;  // point observations made from this pose
     bool constant = false;
+    bool in_problem = false;
+  };
+  struct PointNode {
+    PointId id = 0;
+    std::array<double, 2> x{};  // Ceres parameter block (world frame)
+    std::vector<std::size_t> observations;
     bool in_problem = false;
   };
   struct FactorTerms {
@@ -120,6 +127,11 @@ struct PoseGraph2d::Impl {
   std::unordered_map<PoseId, std::size_t> index;
   std::vector<Factor> factors;
   std::vector<FactorTerms> terms;
+  std::deque<PointNode> points;
+  std::unordered_map<PointId, std::size_t> point_index;
+  std::vector<PointObservation> observations;
+  std::vector<std::unique_ptr<ceres::CostFunction>> observation_costs;
+  std::vector<std::unique_ptr<ceres::LossFunction>> observation_losses;
   std::size_t num_priors = 0;
   std::size_t num_constant = 0;
   ErrorConvention convention = ErrorConvention::kG2o;
@@ -128,10 +140,12 @@ struct PoseGraph2d::Impl {
   // The persistent problem holds every node and the first factors_in_problem factors.
   std::unique_ptr<ceres::Problem> problem;
   std::size_t factors_in_problem = 0;
+  std::size_t observations_in_problem = 0;
   std::size_t gauge_node_in_problem = SIZE_MAX;  // node the problem holds constant for gauge
 
   // Bookkeeping for Update().
   std::size_t factors_at_last_solve = 0;
+  std::size_t observations_at_last_solve = 0;
   std::size_t nodes_at_last_full = 0;
 
   std::size_t Index(PoseId id) const {
@@ -144,7 +158,8 @@ struct PoseGraph2d::Impl {
   void RequireFactors(PoseId id) const {
     const std::size_t k = Index(id);
     const Node& node = nodes[k];
-    if (node.factors.empty() && !node.constant && !(NeedsAutoGauge() && k == 0)) {
+    if (node.factors.empty() && node.observations.empty() && !node.constant &&
+        !(NeedsAutoGauge() && k == 0)) {
       throw std::runtime_error("covariance: pose " + std::to_string(id) + " has no factor");
     }
   }
@@ -160,6 +175,20 @@ struct PoseGraph2d::Impl {
     return internal::Chi2(internal::BetweenError(a, b, f.measurement, convention), f.information);
   }
 
+  std::size_t PointIndex(PointId id) const {
+    const auto it = point_index.find(id);
+    if (it == point_index.end()) {
+      throw std::out_of_range("point " + std::to_string(id) + " not in graph");
+    }
+    return it->second;
+  }
+
+  double ObservationChi2(const PointObservation& o) const {
+    const Pose2 a = ToPose(nodes[Index(o.pose)].x);
+    const auto& l = points[PointIndex(o.point)].x;
+    return internal::Chi2(internal::PointError(a, {l[0], l[1]}, o.p_pose), o.information);
+  }
+
   template <typename Range>
   double SumChi2(const Range& factor_indices) const {
     double sum = 0.0;
@@ -170,7 +199,14 @@ struct PoseGraph2d::Impl {
   double TotalChi2() const {
     double sum = 0.0;
     for (const Factor& f : factors) sum += FactorChi2(f);
+    for (const PointObservation& o : observations) sum += ObservationChi2(o);
     return sum;
+  }
+
+  void AddObservationResidual(ceres::Problem& p, std::size_t k) {
+    const PointObservation& o = observations[k];
+    p.AddResidualBlock(observation_costs[k].get(), observation_losses[k].get(),
+                       nodes[index.at(o.pose)].x.data(), points[point_index.at(o.point)].x.data());
   }
 
   void AddResidual(ceres::Problem& p, std::size_t k) {
@@ -193,8 +229,17 @@ struct PoseGraph2d::Impl {
         n.in_problem = true;
       }
     }
+    for (PointNode& n : points) {
+      if (!n.in_problem) {
+        problem->AddParameterBlock(n.x.data(), 2);
+        n.in_problem = true;
+      }
+    }
     for (; factors_in_problem < factors.size(); ++factors_in_problem) {
       AddResidual(*problem, factors_in_problem);
+    }
+    for (; observations_in_problem < observations.size(); ++observations_in_problem) {
+      AddObservationResidual(*problem, observations_in_problem);
     }
     const std::size_t gauge = NeedsAutoGauge() ? 0 : SIZE_MAX;
     for (Node& n : nodes) {
@@ -306,6 +351,51 @@ std::size_t PoseGraph2d::AddBetween(PoseId i, PoseId j, const Pose2& T_i_j,
 }
 
 const std::vector<Factor>& PoseGraph2d::Factors() const { return impl_->factors; }
+
+void PoseGraph2d::AddPoint(PointId id, const Point2& p_world) {
+  auto& m = *impl_;
+  if (m.point_index.count(id) != 0) {
+    throw std::invalid_argument("point " + std::to_string(id) + " already in graph");
+  }
+  m.point_index.emplace(id, m.points.size());
+  Impl::PointNode& n = m.points.emplace_back();
+  n.id = id;
+  n.x = {p_world.x_m, p_world.y_m};
+}
+
+bool PoseGraph2d::HasPoint(PointId id) const { return impl_->point_index.count(id) != 0; }
+std::size_t PoseGraph2d::NumPoints() const { return impl_->points.size(); }
+
+Point2 PoseGraph2d::Point(PointId id) const {
+  const auto& x = impl_->points[impl_->PointIndex(id)].x;
+  return {x[0], x[1]};
+}
+
+void PoseGraph2d::SetPoint(PointId id, const Point2& p_world) {
+  impl_->points[impl_->PointIndex(id)].x = {p_world.x_m, p_world.y_m};
+}
+
+std::size_t PoseGraph2d::AddPointObservation(PoseId pose, PointId point, const Point2& p_pose,
+                                             const Matrix2& information, RobustLoss loss) {
+  auto& m = *impl_;
+  const std::size_t ni = m.Index(pose), np = m.PointIndex(point);
+  auto cost = std::make_unique<internal::PointObservationCost>(p_pose, information);  // validates
+  const std::size_t k = m.observations.size();
+  m.observations.push_back({pose, point, p_pose, information, loss});
+  m.observation_costs.push_back(std::move(cost));
+  m.observation_losses.push_back(MakeLoss(loss));
+  m.nodes[ni].observations.push_back(k);
+  m.points[np].observations.push_back(k);
+  return k;
+}
+
+const std::vector<PointObservation>& PoseGraph2d::PointObservations() const {
+  return impl_->observations;
+}
+
+double PoseGraph2d::PointObservationChi2(std::size_t observation_index) const {
+  return impl_->ObservationChi2(impl_->observations.at(observation_index));
+}
 std::size_t PoseGraph2d::NumFactors() const { return impl_->factors.size(); }
 ErrorConvention PoseGraph2d::Convention() const { return impl_->convention; }
 
@@ -344,7 +434,7 @@ SolveSummary PoseGraph2d::Optimize(const SolverOptions& options) {
   const double chi2_before = m.TotalChi2();
   SolveSummary out = m.Run(*m.problem, options);
   out.full = true;
-  out.factors = static_cast<int>(m.factors.size());
+  out.factors = static_cast<int>(m.factors.size() + m.observations.size());
   out.variable_poses = 0;
   for (const auto& n : m.nodes) {
     if (!m.problem->IsParameterBlockConstant(n.x.data())) ++out.variable_poses;
@@ -352,6 +442,7 @@ SolveSummary PoseGraph2d::Optimize(const SolverOptions& options) {
   out.initial_chi2 = chi2_before;
   out.final_chi2 = m.TotalChi2();
   m.factors_at_last_solve = m.factors.size();
+  m.observations_at_last_solve = m.observations.size();
   m.nodes_at_last_full = m.nodes.size();
   out.time_s = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
@@ -374,9 +465,24 @@ SolveSummary PoseGraph2d::OptimizeWindow(int window_size, const SolverOptions& o
       if (std::max(a, b) == u) window_factors.push_back(k);
     }
   }
+  // Points observed from the window are free, with every observation of them (poses outside
+  // the window held constant), so an old observation anchors them.
+  std::vector<std::size_t> window_points;
+  for (std::size_t u = first; u < n; ++u) {
+    for (const std::size_t k : m.nodes[u].observations) {
+      window_points.push_back(m.point_index.at(m.observations[k].point));
+    }
+  }
+  std::sort(window_points.begin(), window_points.end());
+  window_points.erase(std::unique(window_points.begin(), window_points.end()), window_points.end());
+  std::vector<std::size_t> window_observations;
+  for (const std::size_t q : window_points) {
+    for (const std::size_t k : m.points[q].observations) window_observations.push_back(k);
+  }
   ceres::Problem p(BorrowingProblemOptions());
   for (std::size_t u = first; u < n; ++u) p.AddParameterBlock(m.nodes[u].x.data(), 3, &m.manifold);
   for (const std::size_t k : window_factors) m.AddResidual(p, k);
+  for (const std::size_t k : window_observations) m.AddObservationResidual(p, k);
   int variable = 0;
   for (std::size_t u = 0; u < n; ++u) {
     double* x = m.nodes[u].x.data();
@@ -389,7 +495,12 @@ SolveSummary PoseGraph2d::OptimizeWindow(int window_size, const SolverOptions& o
       ++variable;
     }
   }
-  const double chi2_before = m.SumChi2(window_factors);
+  auto observation_chi2 = [&] {
+    double sum = 0.0;
+    for (const std::size_t k : window_observations) sum += m.ObservationChi2(m.observations[k]);
+    return sum;
+  };
+  const double chi2_before = m.SumChi2(window_factors) + observation_chi2();
   SolveSummary out;
   if (variable > 0 && !window_factors.empty()) {
     out = m.Run(p, options);
@@ -399,9 +510,10 @@ SolveSummary PoseGraph2d::OptimizeWindow(int window_size, const SolverOptions& o
   out.initial_chi2 = chi2_before;
   out.full = false;
   out.variable_poses = variable;
-  out.factors = static_cast<int>(window_factors.size());
-  out.final_chi2 = m.SumChi2(window_factors);
+  out.factors = static_cast<int>(window_factors.size() + window_observations.size());
+  out.final_chi2 = m.SumChi2(window_factors) + observation_chi2();
   m.factors_at_last_solve = m.factors.size();
+  m.observations_at_last_solve = m.observations.size();
   out.time_s = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
 }
@@ -420,6 +532,12 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
     for (std::size_t k = m.factors_at_last_solve; k < m.factors.size() && !full; ++k) {
       const Factor& f = m.factors[k];
       if (std::min(m.index.at(f.i), m.index.at(f.j)) < first) full = true;
+    }
+    // A point re-observed after it left the window closes a loop through the point.
+    for (std::size_t k = m.observations_at_last_solve; k < m.observations.size() && !full; ++k) {
+      for (const std::size_t o : m.points[m.point_index.at(m.observations[k].point)].observations) {
+        if (m.index.at(m.observations[o].pose) < first) full = true;
+      }
     }
   }
   return full ? Optimize(options.full) : OptimizeWindow(options.window_size, options.local);

@@ -141,6 +141,62 @@ std::array<double, 3> PriorError(const Pose2& a, const Pose2& z, ErrorConvention
   return {c * dx + s * dy, -s * dx + c * dy, NormalizeAngle(a.yaw_rad - z.yaw_rad)};
 }
 
+std::array<double, 3> SqrtInformation2(const Matrix2& m) {
+  const double scale = std::abs(m[0]) + std::abs(m[3]);
+  if (!(std::abs(m[1] - m[2]) <= 1e-9 * scale)) {
+    throw std::invalid_argument("information matrix is not symmetric");
+  }
+  if (!(m[0] > 0.0)) throw std::invalid_argument("information matrix is not positive definite");
+  const double l0 = std::sqrt(m[0]);
+  const double l1 = m[1] / l0;
+  const double l2_sq = m[3] - l1 * l1;
+  if (!(l2_sq > 0.0)) throw std::invalid_argument("information matrix is not positive definite");
+  return {l0, l1, std::sqrt(l2_sq)};
+}
+
+PointObservationCost::PointObservationCost(const Point2& p_i, const Matrix2& information)
+    : z_(p_i), sqrt_info_(SqrtInformation2(information)) {}
+
+bool PointObservationCost::Evaluate(double const* const* parameters, double* residuals,
+                                    double** jacobians) const {
+  const double* a = parameters[0];
+  const double* l = parameters[1];
+  const double c = std::cos(a[2]), s = std::sin(a[2]);
+  const double dx = l[0] - a[0], dy = l[1] - a[1];
+  const double e[2] = {c * dx + s * dy - z_.x_m, -s * dx + c * dy - z_.y_m};
+  const auto& L = sqrt_info_;
+  residuals[0] = L[0] * e[0] + L[1] * e[1];
+  residuals[1] = L[2] * e[1];
+  if (jacobians == nullptr) return true;
+  // Whitens a 2 x cols row-major Jacobian in place into out.
+  auto whiten = [&](const double* J, int cols, double* out) {
+    for (int col = 0; col < cols; ++col) {
+      out[col] = L[0] * J[col] + L[1] * J[cols + col];
+      out[cols + col] = L[2] * J[cols + col];
+    }
+  };
+  if (jacobians[0] != nullptr) {
+    const double J[6] = {-c, -s, -s * dx + c * dy,  //
+                         s,  -c, -c * dx - s * dy};
+    whiten(J, 3, jacobians[0]);
+  }
+  if (jacobians[1] != nullptr) {
+    const double J[4] = {c, s, -s, c};
+    whiten(J, 2, jacobians[1]);
+  }
+  return true;
+}
+
+std::array<double, 2> PointError(const Pose2& a, const Point2& l, const Point2& z) {
+  const double c = std::cos(a.yaw_rad), s = std::sin(a.yaw_rad);
+  const double dx = l.x_m - a.x_m, dy = l.y_m - a.y_m;
+  return {c * dx + s * dy - z.x_m, -s * dx + c * dy - z.y_m};
+}
+
+double Chi2(const std::array<double, 2>& e, const Matrix2& m) {
+  return e[0] * (m[0] * e[0] + m[1] * e[1]) + e[1] * (m[2] * e[0] + m[3] * e[1]);
+}
+
 double Chi2(const std::array<double, 3>& e, const Matrix3& m) {
   double sum = 0.0;
   for (int r = 0; r < 3; ++r)

@@ -70,6 +70,28 @@ class PriorCost final : public ceres::SizedCostFunction<3, 3> {
   std::array<double, 9> sqrt_info_;
 };
 
+// Point observation: pose a = T_w_i, landmark l (world frame), measurement z = the landmark in
+// frame i: e = R(a.yaw)^T (l - a.p) - z, r = L * e with Omega = L^T L (2x2).
+//   de/da.p = -R^T, de/da.yaw = dR(a.yaw)^T/dyaw (l - a.p), de/dl = R^T.
+class PointObservationCost final : public ceres::SizedCostFunction<2, 3, 2> {
+ public:
+  PointObservationCost(const Point2& p_i, const Matrix2& information);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Point2 z_;
+  std::array<double, 3> sqrt_info_;  // L = [[l0, l1], [0, l2]]
+};
+
+// Upper-triangular L with L^T L = information (2x2, as l0, l1, l2 above); throws
+// std::invalid_argument when the matrix is not symmetric positive definite.
+std::array<double, 3> SqrtInformation2(const Matrix2& information);
+
+// Unwhitened point-observation error R(a.yaw)^T (l - a.p) - z, and its chi2.
+std::array<double, 2> PointError(const Pose2& T_w_i, const Point2& l_w, const Point2& p_i);
+double Chi2(const std::array<double, 2>& e, const Matrix2& information);
+
 // Unwhitened g2o errors (no Ceres), for chi2.
 std::array<double, 3> BetweenError(const Pose2& T_w_i, const Pose2& T_w_j, const Pose2& T_i_j,
                                    ErrorConvention convention = ErrorConvention::kG2o);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 
@@ -111,6 +112,88 @@ msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target
 
 }  // namespace
 
+std::vector<LandmarkObservation> ExtractLandmarkObservations(
+    const std::vector<msgs::Point2>& points_kf, const LocalSlamOptions& o) {
+  const std::size_t n = points_kf.size();
+  // Single linkage: union-find over the pairs within the radius (tens to a few hundred
+  // points per keyframe, so all pairs).
+  std::vector<std::size_t> parent(n);
+  std::iota(parent.begin(), parent.end(), std::size_t{0});
+  auto find = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  const double r2 = o.landmark_cluster_radius_m * o.landmark_cluster_radius_m;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const double dx = points_kf[i].x_m - points_kf[j].x_m;
+      const double dy = points_kf[i].y_m - points_kf[j].y_m;
+      if (dx * dx + dy * dy <= r2) parent[find(i)] = find(j);
+    }
+  }
+  std::map<std::size_t, std::vector<std::size_t>> clusters;  // ordered: deterministic output
+  for (std::size_t i = 0; i < n; ++i) clusters[find(i)].push_back(i);
+
+  std::vector<LandmarkObservation> out;
+  const double floor2 = o.landmark_min_sigma_m * o.landmark_min_sigma_m;
+  for (const auto& [root, members] : clusters) {
+    const int m = static_cast<int>(members.size());
+    if (m < o.landmark_min_points) continue;
+    double cx = 0.0, cy = 0.0;
+    for (const std::size_t i : members) {
+      cx += points_kf[i].x_m;
+      cy += points_kf[i].y_m;
+    }
+    cx /= m;
+    cy /= m;
+    double extent2 = 0.0;
+    for (std::size_t a = 0; a < members.size(); ++a) {
+      for (std::size_t b = a + 1; b < members.size(); ++b) {
+        const double dx = points_kf[members[a]].x_m - points_kf[members[b]].x_m;
+        const double dy = points_kf[members[a]].y_m - points_kf[members[b]].y_m;
+        extent2 = std::max(extent2, dx * dx + dy * dy);
+      }
+    }
+    if (extent2 > o.landmark_max_extent_m * o.landmark_max_extent_m) continue;
+    if (o.landmark_max_range_m > 0 && std::hypot(cx, cy) > o.landmark_max_range_m) continue;
+    // Isolated: no point of another cluster near the centroid (rows of piles, debris fields
+    // and wreck parts alias; a lone boulder does not).
+    bool isolated = true;
+    const double iso2 = o.landmark_isolation_m * o.landmark_isolation_m;
+    for (std::size_t i = 0; i < n && isolated; ++i) {
+      if (find(i) == root) continue;
+      const double dx = points_kf[i].x_m - cx, dy = points_kf[i].y_m - cy;
+      isolated = dx * dx + dy * dy > iso2;
+    }
+    if (!isolated) continue;
+    LandmarkObservation z;
+    z.p_kf = {cx, cy};
+    z.num_points = m;
+    z.extent_m = std::sqrt(extent2);
+    for (const std::size_t i : members) {
+      const double dx = points_kf[i].x_m - cx, dy = points_kf[i].y_m - cy;
+      z.cov_xx += dx * dx / m;
+      z.cov_xy += dx * dy / m;
+      z.cov_yy += dy * dy / m;
+    }
+    z.cov_xx += floor2;
+    z.cov_yy += floor2;
+    // Near-face bias: the object's centre lies behind the centroid, along the ray.
+    const double range = std::hypot(cx, cy);
+    if (range > 1e-6) {
+      const double ux = cx / range, uy = cy / range, half = 0.5 * z.extent_m;
+      z.p_kf.x_m += o.landmark_center_offset_ratio * half * ux;
+      z.p_kf.y_m += o.landmark_center_offset_ratio * half * uy;
+      const double var = std::pow(o.landmark_range_sigma_ratio * half, 2);
+      z.cov_xx += var * ux * ux;
+      z.cov_xy += var * ux * uy;
+      z.cov_yy += var * uy * uy;
+    }
+    out.push_back(z);
+  }
+  return out;
+}
+
 msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double rmse_m,
                                  double overlap_ratio, const LocalSlamOptions& o) {
   Eigen::Matrix3d cov = Floored(icp_covariance, o.loop_min_sigma_xy_m, o.loop_min_sigma_yaw_rad);
@@ -136,6 +219,18 @@ struct LocalSlam::Impl {
   std::vector<LoopRecord> loops;
   std::map<std::uint64_t, std::size_t> loop_by_id;
   std::uint64_t next_loop_id = 0;
+
+  // Point landmarks; the index is the graph's point id.
+  struct LandmarkSighting {
+    int keyframe = 0;
+    LandmarkObservation z;
+  };
+  struct Landmark {
+    std::vector<LandmarkSighting> sightings;
+    bool in_graph = false;
+    bool unstable = false;
+  };
+  std::vector<Landmark> landmarks;
 
   explicit Impl(const LocalSlamOptions& o)
       : options(o), pcm([&] {
@@ -185,6 +280,115 @@ struct LocalSlam::Impl {
                        {kf.T_odom_body.x_m - prev.T_odom_body.x_m,
                         kf.T_odom_body.y_m - prev.T_odom_body.y_m, 0.0},
                        pg::Diagonal3(tiny, tiny, 1.0 / (sw * sw)), pg::FactorKind::kOdometry);
+    }
+  }
+
+  msgs::Point2 LandmarkPosition(std::size_t id) const {
+    const Landmark& l = landmarks[id];
+    if (l.in_graph) {
+      const pg::Point2 p = graph.Point(static_cast<pg::PointId>(id));
+      return {p.x_m, p.y_m};
+    }
+    double x = 0.0, y = 0.0;
+    for (const auto& s : l.sightings) {
+      const pg::Point2 p = pg::Transform(graph.Pose(s.keyframe), {s.z.p_kf.x_m, s.z.p_kf.y_m});
+      x += p.x_m;
+      y += p.y_m;
+    }
+    const double n = static_cast<double>(l.sightings.size());
+    return {x / n, y / n};
+  }
+
+  void AddLandmarkFactor(std::size_t id, const LandmarkSighting& s) {
+    const auto& z = s.z;
+    const double det = z.cov_xx * z.cov_yy - z.cov_xy * z.cov_xy;
+    const pg::Matrix2 information = {z.cov_yy / det, -z.cov_xy / det, -z.cov_xy / det,
+                                     z.cov_xx / det};
+    graph.AddPointObservation(
+        s.keyframe, static_cast<pg::PointId>(id), {z.p_kf.x_m, z.p_kf.y_m}, information,
+        options.landmark_cauchy_scale > 0
+            ? pg::RobustLoss{pg::LossKind::kCauchy, options.landmark_cauchy_scale}
+            : pg::RobustLoss{});
+  }
+
+  // Whether sighting s agrees with the earlier sightings of its pass (see the options).
+  bool StableInPass(const Landmark& l, const LandmarkSighting& s) const {
+    double x = 0.0, y = 0.0;
+    int n = 0, next = s.keyframe;
+    for (auto it = l.sightings.rbegin(); it != l.sightings.rend(); ++it) {
+      if (next - it->keyframe > options.landmark_pass_gap) break;
+      const pg::Point2 p =
+          pg::Transform(graph.Pose(it->keyframe), {it->z.p_kf.x_m, it->z.p_kf.y_m});
+      x += p.x_m;
+      y += p.y_m;
+      ++n;
+      next = it->keyframe;
+    }
+    if (n == 0) return true;  // the first sighting of a pass
+    const pg::Point2 p = pg::Transform(graph.Pose(s.keyframe), {s.z.p_kf.x_m, s.z.p_kf.y_m});
+    return std::hypot(p.x_m - x / n, p.y_m - y / n) <= options.landmark_max_pass_spread_m;
+  }
+
+  // Associates keyframe k's landmark observations (see LocalSlamOptions) by the current
+  // estimate and adds the constraints of landmarks that are informative enough.
+  void ObserveLandmarks(int k) {
+    const auto& o = options;
+    const auto observed =
+        ExtractLandmarkObservations(keyframes[static_cast<std::size_t>(k)].points_body, o);
+    if (observed.empty()) return;
+    const pg::Pose2 T_map_k = graph.Pose(k);
+    std::vector<msgs::Point2> known(landmarks.size());
+    for (std::size_t id = 0; id < landmarks.size(); ++id) known[id] = LandmarkPosition(id);
+    constexpr int kDropped = -2, kNew = -1;
+    std::vector<int> match(observed.size(), kDropped);
+    for (std::size_t b = 0; b < observed.size(); ++b) {
+      const pg::Point2 p = pg::Transform(T_map_k, {observed[b].p_kf.x_m, observed[b].p_kf.y_m});
+      int in_gate = 0, near = 0, nearest = kDropped;
+      for (std::size_t id = 0; id < known.size(); ++id) {
+        const double d = std::hypot(known[id].x_m - p.x_m, known[id].y_m - p.y_m);
+        if (d <= o.landmark_gate_m) {
+          ++in_gate;
+          nearest = static_cast<int>(id);
+        }
+        if (d <= o.landmark_new_min_distance_m) ++near;
+      }
+      if (in_gate == 1) {
+        match[b] = nearest;
+      } else if (near == 0) {
+        match[b] = kNew;
+      }
+    }
+    // Two clusters onto one landmark: neither is trusted.
+    for (std::size_t a = 0; a < match.size(); ++a) {
+      for (std::size_t b = a + 1; b < match.size(); ++b) {
+        if (match[a] >= 0 && match[a] == match[b]) match[a] = match[b] = kDropped;
+      }
+    }
+    for (std::size_t b = 0; b < observed.size(); ++b) {
+      if (match[b] == kDropped) continue;
+      const LandmarkSighting sighting{k, observed[b]};
+      if (match[b] == kNew) {
+        landmarks.push_back({{sighting}, false});
+        continue;
+      }
+      const std::size_t id = static_cast<std::size_t>(match[b]);
+      Landmark& l = landmarks[id];
+      if (l.unstable) continue;
+      if (o.landmark_max_pass_spread_m > 0 && !StableInPass(l, sighting)) {
+        l.unstable = true;
+        continue;
+      }
+      l.sightings.push_back(sighting);
+      if (l.in_graph) {
+        AddLandmarkFactor(id, sighting);
+      } else if (static_cast<int>(l.sightings.size()) >= o.landmark_min_observations &&
+                 l.sightings.back().keyframe - l.sightings.front().keyframe >=
+                     o.landmark_min_index_gap) {
+        const msgs::Point2 p = LandmarkPosition(id);
+        graph.AddPoint(static_cast<pg::PointId>(id), {p.x_m, p.y_m});
+        l.in_graph = true;
+        for (const auto& s : l.sightings) AddLandmarkFactor(id, s);
+      }
     }
   }
 
@@ -293,6 +497,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
         pg::InformationFromSigmas(o.prior_sigma_xy_m, o.prior_sigma_xy_m, o.prior_sigma_yaw_rad));
     m.chain.AddKeyframe(0, keyframe.T_odom_body, Eigen::Matrix3d::Zero());
     if (o.heading_bias_sigma_rad > 0) m.AddHeadingBias(0);
+    if (o.landmarks) m.ObserveLandmarks(0);
     return result;
   }
   const msgs::Pose2 T_prev_k = factor != nullptr ? factor->T_from_to : keyframe.T_prevkf_kf;
@@ -356,6 +561,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
       ++result.loops_accepted;
     }
   }
+  if (o.landmarks) m.ObserveLandmarks(k);
   pg::IncrementalOptions inc;
   inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
   const pg::SolveSummary s = m.graph.Update(inc);
@@ -374,6 +580,17 @@ std::vector<KeyframeEstimate> LocalSlam::Trajectory() const {
 }
 
 const std::vector<LoopRecord>& LocalSlam::Loops() const { return impl_->loops; }
+
+std::vector<LandmarkRecord> LocalSlam::Landmarks() const {
+  std::vector<LandmarkRecord> out;
+  for (std::size_t id = 0; id < impl_->landmarks.size(); ++id) {
+    const auto& l = impl_->landmarks[id];
+    out.push_back({static_cast<int>(id), impl_->LandmarkPosition(id),
+                   static_cast<int>(l.sightings.size()), l.sightings.front().keyframe,
+                   l.sightings.back().keyframe, l.in_graph, l.unstable});
+  }
+  return out;
+}
 
 std::vector<msgs::Point2> LocalSlam::MapPoints() const {
   std::vector<msgs::Point2> out;

@@ -31,7 +31,8 @@ class LocalSlamComponent final : public graph::Component {
   void Declare(Spec& spec) override {
     spec.Doc(
         "Local SLAM back end: keyframes and sequential factors into a Ceres SE(2) pose graph, "
-        "intra-robot loop closures (ICP + PCM); writes trajectory, graph, loops and map.");
+        "intra-robot loop closures (ICP + PCM), sparse point landmarks; writes trajectory, "
+        "graph, loops, landmarks and map.");
     keyframe_ = spec.Input<msgs::Keyframe>("keyframe", {.depth = 256, .doc = "keyframes"});
     factor_ = spec.Input<msgs::SequentialFactor>(
         "factor", {.depth = 256,
@@ -99,6 +100,46 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "floor on loop sigmas", .unit = "m", .min = 1e-6});
     spec.Param("loop_min_sigma_yaw_rad", &o_.loop_min_sigma_yaw_rad,
                {.doc = "floor on loop sigmas", .unit = "rad", .min = 1e-7});
+    spec.Param("landmarks", &o_.landmarks,
+               {.doc = "point landmarks from compact isolated clusters of keyframe points"});
+    spec.Param("landmark_cluster_radius_m", &o_.landmark_cluster_radius_m,
+               {.doc = "single-linkage radius of landmark clusters", .unit = "m", .min = 1e-3});
+    spec.Param("landmark_min_points", &o_.landmark_min_points,
+               {.doc = "points a landmark cluster needs", .min = 1});
+    spec.Param("landmark_max_extent_m", &o_.landmark_max_extent_m,
+               {.doc = "largest extent of a landmark cluster", .unit = "m", .min = 0});
+    spec.Param("landmark_isolation_m", &o_.landmark_isolation_m,
+               {.doc = "no other point this close to a landmark cluster's centroid",
+                .unit = "m",
+                .min = 0});
+    spec.Param("landmark_min_sigma_m", &o_.landmark_min_sigma_m,
+               {.doc = "sigma added to a landmark observation's spread", .unit = "m", .min = 1e-3});
+    spec.Param(
+        "landmark_max_range_m", &o_.landmark_max_range_m,
+        {.doc = "ignore landmark clusters farther away (0: no limit)", .unit = "m", .min = 0});
+    spec.Param("landmark_gate_m", &o_.landmark_gate_m,
+               {.doc = "association distance to a landmark's estimate", .unit = "m", .min = 0});
+    spec.Param("landmark_new_min_distance_m", &o_.landmark_new_min_distance_m,
+               {.doc = "no landmark within this distance for a new one", .unit = "m", .min = 0});
+    spec.Param(
+        "landmark_min_index_gap", &o_.landmark_min_index_gap,
+        {.doc = "keyframes a landmark's sightings must span before it constrains", .min = 0});
+    spec.Param("landmark_min_observations", &o_.landmark_min_observations,
+               {.doc = "sightings a landmark needs before it constrains", .min = 1});
+    spec.Param(
+        "landmark_center_offset_ratio", &o_.landmark_center_offset_ratio,
+        {.doc = "landmark centroid moved away from the sonar by this * extent / 2", .min = 0});
+    spec.Param("landmark_range_sigma_ratio", &o_.landmark_range_sigma_ratio,
+               {.doc = "landmark sigma along the ray: this * extent / 2", .min = 0});
+    spec.Param("landmark_max_pass_spread_m", &o_.landmark_max_pass_spread_m,
+               {.doc = "landmark unstable when a sighting strays this far within a pass (0: off)",
+                .unit = "m",
+                .min = 0});
+    spec.Param("landmark_pass_gap", &o_.landmark_pass_gap,
+               {.doc = "sightings at most this many keyframes apart form one pass", .min = 1});
+    spec.Param(
+        "landmark_cauchy_scale", &o_.landmark_cauchy_scale,
+        {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
   }
   Status Start(Context&) override {
     slam_ = LocalSlam(o_);
@@ -163,6 +204,19 @@ class LocalSlamComponent final : public graph::Component {
       char line[64];
       std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
       pcd += line;
+    }
+    if (o_.landmarks) {
+      std::string csv = "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph,unstable\n";
+      for (const auto& l : slam_.Landmarks()) {
+        char line[160];
+        std::snprintf(line, sizeof(line), "%d,%.3f,%.3f,%d,%d,%d,%d,%d\n", l.id, l.p_map.x_m,
+                      l.p_map.y_m, l.num_observations, l.first_keyframe, l.last_keyframe,
+                      l.in_graph ? 1 : 0, l.unstable ? 1 : 0);
+        csv += line;
+      }
+      if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, "landmarks.csv"), csv)) {
+        return Status::Fatal("cannot write " + OutPath(ctx, prefix_, "landmarks.csv"));
+      }
     }
     try {
       eval::WriteTum(OutPath(ctx, prefix_, "trajectory.tum"), est);

@@ -40,6 +40,21 @@ inline Pose2 Between(const Pose2& T_w_a, const Pose2& T_w_b) {
   return Compose(Inverse(T_w_a), T_w_b);
 }
 
+// A point (landmark) in the plane.
+struct Point2 {
+  double x_m = 0.0;
+  double y_m = 0.0;
+};
+
+// p_a = T_a_b * p_b.
+inline Point2 Transform(const Pose2& T_a_b, const Point2& p_b) {
+  const double c = std::cos(T_a_b.yaw_rad), s = std::sin(T_a_b.yaw_rad);
+  return {T_a_b.x_m + c * p_b.x_m - s * p_b.y_m, T_a_b.y_m + s * p_b.x_m + c * p_b.y_m};
+}
+
+// Row-major 2x2 matrix over (x, y).
+using Matrix2 = std::array<double, 4>;
+
 // Row-major 3x3 matrix over (x, y, yaw).
 using Matrix3 = std::array<double, 9>;
 

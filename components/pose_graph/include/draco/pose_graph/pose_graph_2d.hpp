@@ -12,6 +12,11 @@
 // Gauge: when the graph has neither a prior nor a pose held constant, the first pose added
 // is held constant during solves (the problem is otherwise rank-deficient).
 //
+// Point landmarks: 2D point nodes l (world frame) observed from poses; a point observation z
+// (the landmark in the pose's frame) has the error e = R_w_i^T (l - t_w_i) - z and a 2x2
+// information matrix (chi2 = e^T Omega e). Points are not poses: they do not count in the
+// incremental window, the g2o export or the spanning-tree initialisation.
+//
 // Incremental use: the Ceres problem is kept between solves and grows with the graph; pose
 // values are solved in place, so every solve starts warm. Update() optimises only the newest
 // poses (the rest held constant) unless a new factor reaches older poses (a loop closure) or
@@ -33,6 +38,7 @@
 namespace draco::pose_graph {
 
 using PoseId = std::int64_t;
+using PointId = std::int64_t;
 
 enum class FactorKind { kPrior, kOdometry, kScanMatch, kLoop, kInterRobot };
 std::string_view ToString(FactorKind kind);
@@ -55,6 +61,14 @@ struct Factor {
   PoseId j = 0;       // the to-pose of a between factor (== i for a prior)
   Pose2 measurement;  // T_i_j for a between factor, T_world_i for a prior
   Matrix3 information = Diagonal3(1.0, 1.0, 1.0);
+  RobustLoss loss;
+};
+
+struct PointObservation {
+  PoseId pose = 0;
+  PointId point = 0;
+  Point2 p_pose;  // the landmark in the pose's frame
+  Matrix2 information = {1.0, 0.0, 0.0, 1.0};
   RobustLoss loss;
 };
 
@@ -133,6 +147,20 @@ class PoseGraph2d {
   std::size_t AddBetween(PoseId i, PoseId j, const Pose2& T_i_j, const Matrix3& information,
                          FactorKind kind = FactorKind::kOdometry, RobustLoss loss = {});
   const std::vector<Factor>& Factors() const;
+
+  // Point landmarks (their own id space). AddPoint throws std::invalid_argument on a duplicate
+  // id; AddPointObservation returns the observation's index and validates the information
+  // (symmetric positive definite) and both ids (std::out_of_range).
+  void AddPoint(PointId id, const Point2& p_world);
+  bool HasPoint(PointId id) const;
+  std::size_t NumPoints() const;
+  Point2 Point(PointId id) const;
+  void SetPoint(PointId id, const Point2& p_world);
+  std::size_t AddPointObservation(PoseId pose, PointId point, const Point2& p_pose,
+                                  const Matrix2& information, RobustLoss loss = {});
+  const std::vector<PointObservation>& PointObservations() const;
+  double PointObservationChi2(std::size_t observation_index) const;
+
   std::size_t NumFactors() const;
   ErrorConvention Convention() const;
 
@@ -143,13 +171,16 @@ class PoseGraph2d {
 
   // Full solve of every pose, warm-started from the current values.
   SolveSummary Optimize(const SolverOptions& options = {});
-  // Solves the newest window_size poses with every other pose held constant.
+  // Solves the newest window_size poses with every other pose held constant, and the points
+  // they observe (with all of those points' observations).
   SolveSummary OptimizeWindow(int window_size, const SolverOptions& options = {});
   // Per-keyframe entry point: a window solve, or a full one when a new factor reaches older
-  // than the window or a periodic full solve is due.
+  // than the window (a new point observation counts when its point was observed from a pose
+  // older than the window) or a periodic full solve is due.
   SolveSummary Update(const IncrementalOptions& options = {});
 
-  // g2o chi2 of the whole graph (robust losses not applied) and of one factor.
+  // chi2 of the whole graph, point observations included (robust losses not applied), and
+  // of one factor.
   double Chi2() const;
   double FactorChi2(std::size_t factor_index) const;
 

@@ -2,6 +2,8 @@
 // keyframes and sequential scan-matching factors go into a Ceres SE(2) pose graph; intra-robot
 // loop closures are proposed from the current estimate, registered by ICP against a submap,
 // checked for pairwise consistency (PCM over the odometry chain) and added with a robust loss.
+// Compact isolated clusters of keyframe points (boulders, debris) become point landmarks in
+// the graph (docs/local-slam.md, "Sparse point landmarks").
 // No runtime dependency.
 #pragma once
 
@@ -76,7 +78,73 @@ struct LocalSlamOptions {
   // Source: keyframe k and this many keyframes before it, in k's frame (0: keyframe k only).
   int loop_source_half_width = 0;
 
+  // Sparse point landmarks (on by default since docs/local-slam.md "Sparse point landmarks":
+  // every robot of both default missions better): small isolated objects (boulders, debris) give a
+  // few CFAR points per keyframe, too few for ICP, but their centroid is a point landmark
+  // seen from many keyframes and from opposite lanes. Per keyframe, points are clustered by
+  // single linkage (landmark_cluster_radius_m); a cluster with at least landmark_min_points
+  // points, extent (largest distance between two of its points) at most
+  // landmark_max_extent_m and no point of another cluster within landmark_isolation_m of its
+  // centroid is an observation: centroid in the keyframe frame, covariance = point spread +
+  // landmark_min_sigma_m^2 I (a compact object is seen from one side: its centroid moves
+  // with the view point). Association by the current estimate: the one landmark within
+  // landmark_gate_m; none within landmark_new_min_distance_m: a new landmark; otherwise (two
+  // within the gate, or one between the gate and the new-landmark distance, or two clusters
+  // onto one landmark) the cluster is dropped. A landmark enters the graph (point node,
+  // observations with a Cauchy loss) once its observations span landmark_min_index_gap
+  // keyframes and number landmark_min_observations.
+  bool landmarks = true;
+  double landmark_cluster_radius_m = 1.0;
+  int landmark_min_points = 3;
+  double landmark_max_extent_m = 2.5;
+  double landmark_isolation_m = 3.0;  // 2 m lets the airplane's debris field alias
+  double landmark_min_sigma_m = 0.5;
+  double landmark_max_range_m = 0.0;  // ignore clusters farther from the sonar (0: no limit)
+  double landmark_gate_m = 3.0;
+  double landmark_new_min_distance_m = 6.0;
+  int landmark_min_index_gap = 8;
+  int landmark_min_observations = 3;
+  double landmark_cauchy_scale = 2.0;  // in sigmas; 0: no robust loss
+  // The sonar sees the near face of an object, so a cluster's centroid lies in front of the
+  // object's centre by up to its radius (about extent / 2), towards the sonar: from opposite
+  // lanes the two centroids differ by up to the diameter. The centroid is moved along the
+  // ray away from the sonar by landmark_center_offset_ratio * extent / 2 (the centroid of a
+  // lit half circle is 2/pi = 0.64 radii in front of the centre), and
+  // (landmark_range_sigma_ratio * extent / 2)^2 is added to the variance along the ray
+  // (0: off, both).
+  double landmark_center_offset_ratio = 0.0;
+  double landmark_range_sigma_ratio = 0.0;
+  // Viewpoint stability: within one pass (sightings at most landmark_pass_gap keyframes
+  // apart) the relative poses are good, so the sightings of a point-like object agree; a
+  // sighting farther than landmark_max_pass_spread_m from the mean of the earlier sightings of
+  // its pass (map frame, current estimates) marks the landmark unstable (an extended or
+  // partly seen object, or two objects): it takes no further part (0: no test).
+  double landmark_max_pass_spread_m = 0.0;
+  int landmark_pass_gap = 3;
+
   int window_size = 20;  // incremental solve window (newest keyframes)
+};
+
+// One point landmark candidate of a keyframe: a compact isolated cluster of its points.
+struct LandmarkObservation {
+  msgs::Point2 p_kf;                                // centroid, keyframe frame
+  double cov_xx = 0.0, cov_xy = 0.0, cov_yy = 0.0;  // m^2, floor included
+  int num_points = 0;
+  double extent_m = 0.0;
+};
+
+// Clusters a keyframe's points (body frame) into landmark observations (see the options).
+std::vector<LandmarkObservation> ExtractLandmarkObservations(
+    const std::vector<msgs::Point2>& points_kf, const LocalSlamOptions& options);
+
+struct LandmarkRecord {
+  int id = 0;
+  msgs::Point2 p_map;  // graph estimate, or the mean of the observations at the current poses
+  int num_observations = 0;
+  int first_keyframe = 0;
+  int last_keyframe = 0;
+  bool in_graph = false;
+  bool unstable = false;  // failed the viewpoint-stability test
 };
 
 struct KeyframeEstimate {
@@ -121,6 +189,7 @@ class LocalSlam {
 
   std::vector<KeyframeEstimate> Trajectory() const;
   const std::vector<LoopRecord>& Loops() const;
+  std::vector<LandmarkRecord> Landmarks() const;
   // Every keyframe's points in the map frame.
   std::vector<msgs::Point2> MapPoints() const;
   // The pose graph as g2o text (VERTEX_SE2 / EDGE_SE2).
