@@ -141,8 +141,10 @@ int main(int argc, char** argv) {
   app.add_option("--track-dominance", over_time.tracker.dominance,
                  "tracker: votes over every other track's");
   CLI11_PARSE(app, argc, argv);
-  if (corner_min_deg > 0) matcher.lines.min_corner_angle_rad = corner_min_deg * std::numbers::pi / 180;
-  if (line_angle_deg > 0) matcher.lines.angle_tolerance_rad = line_angle_deg * std::numbers::pi / 180;
+  if (corner_min_deg > 0)
+    matcher.lines.min_corner_angle_rad = corner_min_deg * std::numbers::pi / 180;
+  if (line_angle_deg > 0)
+    matcher.lines.angle_tolerance_rad = line_angle_deg * std::numbers::pi / 180;
   if (affinity == "paper") matcher.affinity = draco::objects::AffinityForm::kPaper;
   if (affinity == "relative") matcher.affinity = draco::objects::AffinityForm::kRelative;
   if (affinity == "code") matcher.affinity = draco::objects::AffinityForm::kCode;

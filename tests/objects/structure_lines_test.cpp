@@ -86,17 +86,15 @@ TEST(StructureLines, RecoversTransformFromPartialViewsOfPiers) {
   msgs::ObjectMap a, b;
   a.robot_id = 0;
   b.robot_id = 1;
-  a.objects = {Line(0, 0, 0, 52, 0, 1.2),     Line(1, 60, 5, 60, 22, 1.0),
-               Line(2, 10, 20, 30, 31, 1.5),  Compact(3, 40, 10, 1.0),
-               Compact(4, 45, 15, 0.8),       Compact(5, 20, 8, 1.5)};
+  a.objects = {Line(0, 0, 0, 52, 0, 1.2), Line(1, 60, 5, 60, 22, 1.0), Line(2, 10, 20, 30, 31, 1.5),
+               Compact(3, 40, 10, 1.0),   Compact(4, 45, 15, 0.8),     Compact(5, 20, 8, 1.5)};
   const Pose2 T_a_b{12.0, -7.0, 40.0 * kDeg};
   const Pose2 T_b_a = Inverse(T_a_b);
   // b sees other parts of the same piers and two of the compact objects, plus its own clutter.
-  std::vector<msgs::Object> b_world = {Line(10, 30, 0.3, 55, 0.3, 1.0),
-                                       Line(11, 59.8, 8, 59.8, 45, 1.0),
-                                       Line(12, 22, 26.6, 38, 35.4, 1.2),
-                                       Compact(13, 40.5, 10.3, 1.1), Compact(14, 45.2, 14.6, 0.9),
-                                       Compact(15, 70, 70, 1.0)};
+  std::vector<msgs::Object> b_world = {
+      Line(10, 30, 0.3, 55, 0.3, 1.0),   Line(11, 59.8, 8, 59.8, 45, 1.0),
+      Line(12, 22, 26.6, 38, 35.4, 1.2), Compact(13, 40.5, 10.3, 1.1),
+      Compact(14, 45.2, 14.6, 0.9),      Compact(15, 70, 70, 1.0)};
   for (const auto& o : b_world) b.objects.push_back(Moved(o, T_b_a));
 
   MatcherOptions opt;
@@ -152,8 +150,7 @@ TEST(StructureLines, RefineRecoversSmallOffsetExactly) {
 // Unrelated maps of random segments and points: the line path must not invent matches.
 TEST(StructureLines, UnrelatedMapsRarelyMatch) {
   std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> u(0.0, 100.0), ang(0.0, std::numbers::pi),
-      len(6.0, 30.0);
+  std::uniform_real_distribution<double> u(0.0, 100.0), ang(0.0, std::numbers::pi), len(6.0, 30.0);
   int matched = 0;
   for (int trial = 0; trial < 50; ++trial) {
     msgs::ObjectMap a, b;

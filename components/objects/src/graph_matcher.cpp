@@ -2,8 +2,6 @@
 #include "draco/objects/graph_matcher.hpp"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -564,12 +562,6 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   if (!options.structure_lines) return spectral;
   const LineMatchResult lines =
       MatchStructureLines(a, b, options.lines, options.distinct_m, options.distinct_rad);
-  if (std::getenv("DRACO_LINE_DEBUG"))
-    std::fprintf(stderr, "lines %d-%d: na %zu nb %zu corners %d/%d hyps %d best %d (lines %d) runner %d T %.2f %.2f %.1f\n",
-                 a.robot_id, b.robot_id, a.objects.size(), b.objects.size(), lines.num_corners_a,
-                 lines.num_corners_b, lines.num_hypotheses, lines.best.support,
-                 lines.best.line_support, lines.runner_up_support, lines.best.T_a_b.x_m,
-                 lines.best.T_a_b.y_m, lines.best.T_a_b.yaw_rad * 57.3);
   if (!lines.found || lines.best.support < options.min_line_support) return spectral;
   const bool spectral_ok = spectral.status == MatchStatus::kMatched;
   if (spectral_ok &&
@@ -577,8 +569,8 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
     return spectral;
   }
   msgs::ObjectMatch match = spectral;
-  match.ambiguity = std::max(0, lines.runner_up_support - 2) /
-                    std::max(1e-9, double(lines.best.support - 2));
+  match.ambiguity =
+      std::max(0, lines.runner_up_support - 2) / std::max(1e-9, double(lines.best.support - 2));
   if (options.max_line_ambiguity > 0.0 && match.ambiguity >= options.max_line_ambiguity) {
     if (spectral_ok) return spectral;
     match.status = MatchStatus::kAmbiguous;

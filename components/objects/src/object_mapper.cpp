@@ -79,7 +79,8 @@ std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::
   for (const auto& p : points) cx += p.x_m, cy += p.y_m;
   cx /= double(points.size());
   cy /= double(points.size());
-  const int n_angles = std::max(1, static_cast<int>(std::ceil(std::numbers::pi / o.angle_step_rad)));
+  const int n_angles =
+      std::max(1, static_cast<int>(std::ceil(std::numbers::pi / o.angle_step_rad)));
   std::vector<int> votes;
   while (static_cast<int>(segments.size()) < o.max_segments &&
          static_cast<int>(left.size()) >= o.min_points) {
@@ -145,10 +146,9 @@ std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::
     double best_len = -1.0;
     for (std::size_t k = 0; k <= in.size(); ++k) {
       const bool cut =
-          k == in.size() ||
-          (k > 0 && (points[in[k]].x_m - points[in[k - 1]].x_m) * dx +
-                            (points[in[k]].y_m - points[in[k - 1]].y_m) * dy >
-                        o.max_gap_m);
+          k == in.size() || (k > 0 && (points[in[k]].x_m - points[in[k - 1]].x_m) * dx +
+                                              (points[in[k]].y_m - points[in[k - 1]].y_m) * dy >
+                                          o.max_gap_m);
       if (!cut) continue;
       if (k > run_begin) {
         const double len = (points[in[k - 1]].x_m - points[in[run_begin]].x_m) * dx +

@@ -105,9 +105,9 @@ LineHypothesis Score(const msgs::ObjectMap& a, const Prepared& pa, const msgs::O
     }
   }
   std::sort(cands.begin(), cands.end(), [](const Cand& x, const Cand& y) {
-    return x.r < y.r || (x.r == y.r && (x.line > y.line || (x.line == y.line &&
-                                                            (x.ia < y.ia || (x.ia == y.ia &&
-                                                                             x.ib < y.ib)))));
+    return x.r < y.r ||
+           (x.r == y.r && (x.line > y.line ||
+                           (x.line == y.line && (x.ia < y.ia || (x.ia == y.ia && x.ib < y.ib)))));
   });
   std::vector<char> used_la(pa.lines.size(), 0), used_lb(pb.lines.size(), 0);
   std::vector<char> used_ca(pa.compact.size(), 0), used_cb(pb.compact.size(), 0);
@@ -183,8 +183,8 @@ std::vector<StructureCorner> Corners(const std::vector<StructureLine>& lines,
           std::abs(u) > lj.half_length_m + options.max_reach_m) {
         continue;
       }
-      out.push_back({int(i), int(j), {li.center.x_m + s * di.x_m, li.center.y_m + s * di.y_m},
-                     angle});
+      out.push_back(
+          {int(i), int(j), {li.center.x_m + s * di.x_m, li.center.y_m + s * di.y_m}, angle});
     }
   }
   return out;
@@ -279,8 +279,8 @@ LineMatchResult MatchStructureLines(const msgs::ObjectMap& a, const msgs::Object
           const double theta = NormalizeAngle(theta0 + half * kPi);
           const double c = std::cos(theta), s = std::sin(theta);
           const Point2& p = y0.point;
-          const Pose2 T{x.point.x_m - (c * p.x_m - s * p.y_m), x.point.y_m - (s * p.x_m + c * p.y_m),
-                        theta};
+          const Pose2 T{x.point.x_m - (c * p.x_m - s * p.y_m),
+                        x.point.y_m - (s * p.x_m + c * p.y_m), theta};
           hyps.push_back(Score(a, pa, b, pb, T, options, false));
         }
       }

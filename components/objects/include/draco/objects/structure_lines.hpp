@@ -27,7 +27,7 @@ namespace draco::objects {
 struct StructureLineOptions {
   // An object is a line when long and slender; otherwise compact when short.
   double min_length_m = 6.0;
-  double min_aspect = 3.0;          // length / breadth
+  double min_aspect = 3.0;            // length / breadth
   double max_compact_length_m = 4.0;  // compact objects (piles, boats, stubs) for support
   // Corners: two axes at least this far from parallel, meeting at most max_reach_m beyond
   // either segment's end (far extrapolation turns a small angle error into metres).
@@ -42,8 +42,8 @@ struct StructureLineOptions {
 };
 
 struct StructureLine {
-  int object = 0;     // index into the map's objects
-  Point2 center;      // rectangle centre
+  int object = 0;        // index into the map's objects
+  Point2 center;         // rectangle centre
   double yaw_rad = 0.0;  // in [0, pi)
   double half_length_m = 0.0;
 };
@@ -96,7 +96,7 @@ struct LineMatchResult {
 // supported hypothesis, refined, and the best distinct runner-up (distinct: yaw differs by
 // more than distinct_rad or b's origin lands more than distinct_m away).
 LineMatchResult MatchStructureLines(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
-                                    const StructureLineOptions& options,
-                                    double distinct_m = 3.0, double distinct_rad = 0.1745);
+                                    const StructureLineOptions& options, double distinct_m = 3.0,
+                                    double distinct_rad = 0.1745);
 
 }  // namespace draco::objects
