@@ -117,6 +117,10 @@ struct PoseGraph2d::Impl {
     std::array<double, 2> x{};  // Ceres parameter block (world frame)
     std::vector<std::size_t> observations;
     bool in_problem = false;
+    // Optional radius state (PointRadiusPrior) and its prior's cost.
+    std::array<double, 1> rho{};
+    std::optional<PointRadiusPrior> radius;
+    std::unique_ptr<ceres::CostFunction> radius_cost;
   };
   struct FactorTerms {
     std::unique_ptr<ceres::CostFunction> cost;
@@ -185,8 +189,26 @@ struct PoseGraph2d::Impl {
 
   double ObservationChi2(const PointObservation& o) const {
     const Pose2 a = ToPose(nodes[Index(o.pose)].x);
-    const auto& l = points[PointIndex(o.point)].x;
-    return internal::Chi2(internal::PointError(a, {l[0], l[1]}, o.p_pose), o.information);
+    const PointNode& q = points[PointIndex(o.point)];
+    const Point2 l{q.x[0], q.x[1]};
+    return internal::Chi2(q.radius ? internal::PointRadiusError(a, l, q.rho[0], o.p_pose)
+                                   : internal::PointError(a, l, o.p_pose),
+                          o.information);
+  }
+
+  static double RadiusPriorChi2(const PointNode& q) {
+    if (!q.radius) return 0.0;
+    const double r = (q.rho[0] - q.radius->prior_m) / q.radius->sigma_m;
+    return r * r;
+  }
+
+  // The radius block of point q with its prior and bounds (once per problem).
+  static void AddRadiusBlock(ceres::Problem& p, PointNode& q) {
+    if (!q.radius || p.HasParameterBlock(q.rho.data())) return;
+    p.AddParameterBlock(q.rho.data(), 1);
+    p.SetParameterLowerBound(q.rho.data(), 0, 0.0);
+    p.SetParameterUpperBound(q.rho.data(), 0, q.radius->max_m);
+    p.AddResidualBlock(q.radius_cost.get(), nullptr, q.rho.data());
   }
 
   template <typename Range>
@@ -200,13 +222,21 @@ struct PoseGraph2d::Impl {
     double sum = 0.0;
     for (const Factor& f : factors) sum += FactorChi2(f);
     for (const PointObservation& o : observations) sum += ObservationChi2(o);
+    for (const PointNode& q : points) sum += RadiusPriorChi2(q);
     return sum;
   }
 
   void AddObservationResidual(ceres::Problem& p, std::size_t k) {
     const PointObservation& o = observations[k];
-    p.AddResidualBlock(observation_costs[k].get(), observation_losses[k].get(),
-                       nodes[index.at(o.pose)].x.data(), points[point_index.at(o.point)].x.data());
+    PointNode& q = points[point_index.at(o.point)];
+    if (q.radius) {
+      AddRadiusBlock(p, q);
+      p.AddResidualBlock(observation_costs[k].get(), observation_losses[k].get(),
+                         nodes[index.at(o.pose)].x.data(), q.x.data(), q.rho.data());
+    } else {
+      p.AddResidualBlock(observation_costs[k].get(), observation_losses[k].get(),
+                         nodes[index.at(o.pose)].x.data(), q.x.data());
+    }
   }
 
   void AddResidual(ceres::Problem& p, std::size_t k) {
@@ -352,15 +382,33 @@ std::size_t PoseGraph2d::AddBetween(PoseId i, PoseId j, const Pose2& T_i_j,
 
 const std::vector<Factor>& PoseGraph2d::Factors() const { return impl_->factors; }
 
-void PoseGraph2d::AddPoint(PointId id, const Point2& p_world) {
+void PoseGraph2d::AddPoint(PointId id, const Point2& p_world,
+                           std::optional<PointRadiusPrior> radius) {
   auto& m = *impl_;
   if (m.point_index.count(id) != 0) {
     throw std::invalid_argument("point " + std::to_string(id) + " already in graph");
+  }
+  std::unique_ptr<ceres::CostFunction> radius_cost;
+  if (radius) {
+    if (!(radius->max_m > 0.0) || !(radius->prior_m >= 0.0) || radius->prior_m > radius->max_m) {
+      throw std::invalid_argument("point " + std::to_string(id) +
+                                  ": radius prior must lie in [0, max_m], max_m > 0");
+    }
+    radius_cost.reset(internal::NewRadiusPriorCost(radius->prior_m, radius->sigma_m));
   }
   m.point_index.emplace(id, m.points.size());
   Impl::PointNode& n = m.points.emplace_back();
   n.id = id;
   n.x = {p_world.x_m, p_world.y_m};
+  n.radius = radius;
+  n.radius_cost = std::move(radius_cost);
+  if (radius) n.rho[0] = radius->prior_m;
+}
+
+std::optional<double> PoseGraph2d::PointRadius(PointId id) const {
+  const auto& q = impl_->points[impl_->PointIndex(id)];
+  if (!q.radius) return std::nullopt;
+  return q.rho[0];
 }
 
 bool PoseGraph2d::HasPoint(PointId id) const { return impl_->point_index.count(id) != 0; }
@@ -379,7 +427,12 @@ std::size_t PoseGraph2d::AddPointObservation(PoseId pose, PointId point, const P
                                              const Matrix2& information, RobustLoss loss) {
   auto& m = *impl_;
   const std::size_t ni = m.Index(pose), np = m.PointIndex(point);
-  auto cost = std::make_unique<internal::PointObservationCost>(p_pose, information);  // validates
+  std::unique_ptr<ceres::CostFunction> cost;  // both validate the information
+  if (m.points[np].radius) {
+    cost.reset(internal::NewPointRadiusObservationCost(p_pose, information));
+  } else {
+    cost = std::make_unique<internal::PointObservationCost>(p_pose, information);
+  }
   const std::size_t k = m.observations.size();
   m.observations.push_back({pose, point, p_pose, information, loss});
   m.observation_costs.push_back(std::move(cost));

@@ -1,6 +1,9 @@
 #include "se2_cost.hpp"
 
+#include <algorithm>
 #include <cmath>
+
+#include <ceres/autodiff_cost_function.h>
 #include <stdexcept>
 
 namespace draco::pose_graph::internal {
@@ -185,6 +188,61 @@ bool PointObservationCost::Evaluate(double const* const* parameters, double* res
     whiten(J, 2, jacobians[1]);
   }
   return true;
+}
+
+namespace {
+
+struct PointRadiusResidual {
+  template <typename T>
+  bool operator()(const T* a, const T* l, const T* rho, T* r) const {
+    using std::cos;
+    using std::sin;
+    using std::sqrt;
+    const T c = cos(a[2]), s = sin(a[2]);
+    const T dx = l[0] - a[0], dy = l[1] - a[1];
+    const T cx = c * dx + s * dy, cy = -s * dx + c * dy;
+    T norm = sqrt(cx * cx + cy * cy);
+    if (norm < T(1e-6)) norm = T(1e-6);
+    const T scale = T(1.0) - rho[0] / norm;
+    const T e0 = cx * scale - T(z.x_m), e1 = cy * scale - T(z.y_m);
+    r[0] = T(L[0]) * e0 + T(L[1]) * e1;
+    r[1] = T(L[2]) * e1;
+    return true;
+  }
+  Point2 z;
+  std::array<double, 3> L;
+};
+
+struct RadiusPriorResidual {
+  template <typename T>
+  bool operator()(const T* rho, T* r) const {
+    r[0] = (rho[0] - T(prior_m)) / T(sigma_m);
+    return true;
+  }
+  double prior_m;
+  double sigma_m;
+};
+
+}  // namespace
+
+ceres::CostFunction* NewPointRadiusObservationCost(const Point2& p_i, const Matrix2& information) {
+  return new ceres::AutoDiffCostFunction<PointRadiusResidual, 2, 3, 2, 1>(
+      new PointRadiusResidual{p_i, SqrtInformation2(information)});
+}
+
+ceres::CostFunction* NewRadiusPriorCost(double prior_m, double sigma_m) {
+  if (!(sigma_m > 0.0)) throw std::invalid_argument("radius prior sigma must be positive");
+  return new ceres::AutoDiffCostFunction<RadiusPriorResidual, 1, 1>(
+      new RadiusPriorResidual{prior_m, sigma_m});
+}
+
+std::array<double, 2> PointRadiusError(const Pose2& a, const Point2& l, double rho,
+                                       const Point2& z) {
+  const double c = std::cos(a.yaw_rad), s = std::sin(a.yaw_rad);
+  const double dx = l.x_m - a.x_m, dy = l.y_m - a.y_m;
+  const double cx = c * dx + s * dy, cy = -s * dx + c * dy;
+  const double scale = 1.0 - rho / std::max(std::hypot(cx, cy), 1e-6);
+  return {cx * scale - z.x_m, cy * scale - z.y_m};
 }
 
 std::array<double, 2> PointError(const Pose2& a, const Point2& l, const Point2& z) {

@@ -84,6 +84,15 @@ class PointObservationCost final : public ceres::SizedCostFunction<2, 3, 2> {
   std::array<double, 3> sqrt_info_;  // L = [[l0, l1], [0, l2]]
 };
 
+// Point observation with a radius state rho (PointRadiusPrior): parameters a (3), l (2),
+// rho (1); c = R(a.yaw)^T (l - a.p), e = c (1 - rho / |c|) - z, r = L * e. Automatic
+// derivatives. |c| is floored at 1e-6 m.
+ceres::CostFunction* NewPointRadiusObservationCost(const Point2& p_i, const Matrix2& information);
+// Gaussian prior on rho: r = (rho - prior_m) / sigma_m.
+ceres::CostFunction* NewRadiusPriorCost(double prior_m, double sigma_m);
+std::array<double, 2> PointRadiusError(const Pose2& T_w_i, const Point2& l_w, double rho_m,
+                                       const Point2& p_i);
+
 // Upper-triangular L with L^T L = information (2x2, as l0, l1, l2 above); throws
 // std::invalid_argument when the matrix is not symmetric positive definite.
 std::array<double, 3> SqrtInformation2(const Matrix2& information);

@@ -338,7 +338,20 @@ struct LocalSlam::Impl {
     if (observed.empty()) return;
     const pg::Pose2 T_map_k = graph.Pose(k);
     std::vector<msgs::Point2> known(landmarks.size());
-    for (std::size_t id = 0; id < landmarks.size(); ++id) known[id] = LandmarkPosition(id);
+    for (std::size_t id = 0; id < landmarks.size(); ++id) {
+      known[id] = LandmarkPosition(id);
+      // With a radius state the graph point is the centre: predict the near face from here.
+      const auto rho = landmarks[id].in_graph ? graph.PointRadius(static_cast<pg::PointId>(id))
+                                              : std::nullopt;
+      if (rho) {
+        const double dx = known[id].x_m - T_map_k.x_m, dy = known[id].y_m - T_map_k.y_m;
+        const double d = std::hypot(dx, dy);
+        if (d > *rho) {
+          known[id].x_m -= *rho * dx / d;
+          known[id].y_m -= *rho * dy / d;
+        }
+      }
+    }
     constexpr int kDropped = -2, kNew = -1;
     std::vector<int> match(observed.size(), kDropped);
     for (std::size_t b = 0; b < observed.size(); ++b) {
@@ -385,7 +398,16 @@ struct LocalSlam::Impl {
                  l.sightings.back().keyframe - l.sightings.front().keyframe >=
                      o.landmark_min_index_gap) {
         const msgs::Point2 p = LandmarkPosition(id);
-        graph.AddPoint(static_cast<pg::PointId>(id), {p.x_m, p.y_m});
+        std::optional<pg::PointRadiusPrior> radius;
+        if (o.landmark_radius_sigma_m > 0) {
+          double extent = 0.0;
+          for (const auto& s : l.sightings) extent += s.z.extent_m;
+          extent /= static_cast<double>(l.sightings.size());
+          radius = pg::PointRadiusPrior{
+              std::min(o.landmark_radius_prior_ratio * 0.5 * extent, o.landmark_radius_max_m),
+              o.landmark_radius_sigma_m, o.landmark_radius_max_m};
+        }
+        graph.AddPoint(static_cast<pg::PointId>(id), {p.x_m, p.y_m}, radius);
         l.in_graph = true;
         for (const auto& s : l.sightings) AddLandmarkFactor(id, s);
       }

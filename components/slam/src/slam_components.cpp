@@ -131,6 +131,14 @@ class LocalSlamComponent final : public graph::Component {
         {.doc = "landmark centroid moved away from the sonar by this * extent / 2", .min = 0});
     spec.Param("landmark_range_sigma_ratio", &o_.landmark_range_sigma_ratio,
                {.doc = "landmark sigma along the ray: this * extent / 2", .min = 0});
+    spec.Param("landmark_radius_sigma_m", &o_.landmark_radius_sigma_m,
+               {.doc = "sigma of a landmark's radius-state prior (0: no radius state)",
+                .unit = "m",
+                .min = 0});
+    spec.Param("landmark_radius_prior_ratio", &o_.landmark_radius_prior_ratio,
+               {.doc = "radius prior = this * mean sighting extent / 2", .min = 0});
+    spec.Param("landmark_radius_max_m", &o_.landmark_radius_max_m,
+               {.doc = "upper bound of a landmark's radius", .unit = "m", .min = 0.01});
     spec.Param("landmark_max_pass_spread_m", &o_.landmark_max_pass_spread_m,
                {.doc = "landmark unstable when a sighting strays this far within a pass (0: off)",
                 .unit = "m",

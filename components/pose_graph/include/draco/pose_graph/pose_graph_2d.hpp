@@ -64,6 +64,18 @@ struct Factor {
   RobustLoss loss;
 };
 
+// Optional radius state of a point landmark. A sonar sees a round object's near face, so the
+// centroid of its returns lies between the object's centre and the observer, by about 0.64
+// radii for a lit half circle. With a radius state rho (m) the point is the object's centre l
+// and an observation z predicts c (1 - rho / |c|), c = R_w_i^T (l - t_w_i): the centre moved
+// toward the observer by rho. rho has a Gaussian prior and stays within [0, max_m]; it is
+// observable once the point is seen from different sides.
+struct PointRadiusPrior {
+  double prior_m = 0.0;
+  double sigma_m = 0.5;
+  double max_m = 5.0;
+};
+
 struct PointObservation {
   PoseId pose = 0;
   PointId point = 0;
@@ -151,11 +163,14 @@ class PoseGraph2d {
   // Point landmarks (their own id space). AddPoint throws std::invalid_argument on a duplicate
   // id; AddPointObservation returns the observation's index and validates the information
   // (symmetric positive definite) and both ids (std::out_of_range).
-  void AddPoint(PointId id, const Point2& p_world);
+  void AddPoint(PointId id, const Point2& p_world,
+                std::optional<PointRadiusPrior> radius = std::nullopt);
   bool HasPoint(PointId id) const;
   std::size_t NumPoints() const;
   Point2 Point(PointId id) const;
   void SetPoint(PointId id, const Point2& p_world);
+  // The radius estimate of a point added with a PointRadiusPrior (nullopt otherwise).
+  std::optional<double> PointRadius(PointId id) const;
   std::size_t AddPointObservation(PoseId pose, PointId point, const Point2& p_pose,
                                   const Matrix2& information, RobustLoss loss = {});
   const std::vector<PointObservation>& PointObservations() const;

@@ -119,6 +119,13 @@ struct LocalSlamOptions {
   // sighting farther than landmark_max_pass_spread_m from the mean of the earlier sightings of
   // its pass (map frame, current estimates) marks the landmark unstable (an extended or
   // partly seen object, or two objects): it takes no further part (0: no test).
+  // Radius state (pose_graph::PointRadiusPrior): a landmark's graph point is the object's
+  // centre and each sighting predicts the centroid of its near face, moved toward the sonar by
+  // rho; rho's prior is landmark_radius_prior_ratio * (mean extent of the sightings) / 2 with
+  // sigma landmark_radius_sigma_m (0: no radius state), at most landmark_radius_max_m.
+  double landmark_radius_sigma_m = 0.3;
+  double landmark_radius_prior_ratio = 0.64;
+  double landmark_radius_max_m = 2.0;
   double landmark_max_pass_spread_m = 0.0;
   int landmark_pass_gap = 3;
 
