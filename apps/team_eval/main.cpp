@@ -145,6 +145,10 @@ int main(int argc, char** argv) {
   double map_sigma_m = 1.0, map_sigma_deg = 3.0;
   int min_clique = 5;
   bool full_local_graph = false;
+  std::string global_anchor = "touched";
+  team::TwoStepOptions two_step;
+  team::FullOptions full_options;
+  double loop_sigma_m = 0.0, loop_sigma_deg = 0.0;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
   app.add_option("--graph", slam.graph_path, "local-SLAM graph YAML");
@@ -161,8 +165,32 @@ int main(int argc, char** argv) {
   app.add_flag("--full-local-graph", full_local_graph,
                "own graphs = every local-SLAM factor (re-solved without the local robust "
                "losses); default: the optimised local trajectory as a chain");
+  app.add_option("--global-anchor", global_anchor,
+                 "two-step global step: touched (robust priors on every touched teammate pose, "
+                 "teammate chain deformed), first-loop (rigid, by the first loop), rigid (rigid, "
+                 "least-squares fit of every touched pose)")
+      ->check(CLI::IsMember({"touched", "first-loop", "rigid"}));
+  app.add_flag("--chain-from-factors", two_step.teammate_chain_from_factors,
+               "global step: teammate chain with its own information (default: the reference's "
+               "0.1 m / 0.01 rad)");
+  app.add_option("--loop-sigma-m", loop_sigma_m,
+                 "fixed inter-robot loop sigma (m) in both PGOs (0: the loop's own covariance)");
+  app.add_option("--loop-sigma-deg", loop_sigma_deg, "fixed inter-robot loop sigma (deg)");
   CLI11_PARSE(app, argc, argv);
-  ro.min_overlap = 0.0;  // the threshold is applied below
+  ro.min_overlap = 0.0;
+  two_step.anchor = global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
+                    : global_anchor == "first-loop" ? team::GlobalAnchor::kFirstLoop
+                                                    : team::GlobalAnchor::kTouchedPoses;
+  if (loop_sigma_m > 0 || loop_sigma_deg > 0) {
+    if (!(loop_sigma_m > 0 && loop_sigma_deg > 0)) {
+      std::cerr << "draco-team-eval: --loop-sigma-m and --loop-sigma-deg go together\n";
+      return 2;
+    }
+    two_step.loop_information_from_covariance = full_options.loop_information_from_covariance =
+        false;
+    two_step.loop_sigma_xy_m = full_options.loop_sigma_xy_m = loop_sigma_m;
+    two_step.loop_sigma_yaw_rad = full_options.loop_sigma_yaw_rad = loop_sigma_deg * kDeg;
+  }  // the threshold is applied below
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
@@ -303,8 +331,8 @@ int main(int argc, char** argv) {
       }
       for (int m = 0; m < 2; ++m) {
         problem.loops = accepted[m];
-        const auto two = team::TwoStepPgo(problem, A.id);
-        const auto full = team::FullPgo(problem, A.id);
+        const auto two = team::TwoStepPgo(problem, A.id, two_step);
+        const auto full = team::FullPgo(problem, A.id, full_options);
         for (int v = 0; v < 2; ++v) {
           const auto& est = v == 0 ? two : full;
           auto& out = rows[2 + 2 * v + m];

@@ -526,9 +526,9 @@ TEST(PointRadiusObservation, PredictsTheNearFaceOfTheCentre) {
   // Seen at (4.5, 0.5): error (0.5, 0.5), chi2 = 4 * 0.25 + 0.25.
   const std::size_t off = graph.AddPointObservation(0, 3, {4.5, 0.5}, {4.0, 0.0, 0.0, 1.0});
   EXPECT_NEAR(graph.PointObservationChi2(off), 1.25, 1e-12);
-  EXPECT_NEAR(internal::PointRadiusError({1.0, 2.0, std::numbers::pi / 2}, {1.0, 7.0}, 1.0,
-                                         {4.5, 0.5})[1],
-              -0.5, 1e-12);
+  EXPECT_NEAR(
+      internal::PointRadiusError({1.0, 2.0, std::numbers::pi / 2}, {1.0, 7.0}, 1.0, {4.5, 0.5})[1],
+      -0.5, 1e-12);
   graph.AddPoint(4, {0.0, 0.0});
   EXPECT_FALSE(graph.PointRadius(4).has_value());
   EXPECT_THROW(graph.AddPoint(5, {}, PointRadiusPrior{.prior_m = 4.0, .max_m = 3.0}),

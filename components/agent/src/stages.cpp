@@ -849,7 +849,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
 
   team::TeamProblem problem;
   team::RobotGraph own_graph;
-  const pg::Matrix3 own_chain_info = Information(0.1, 0.01);
+  const pg::Matrix3 own_chain_info =
+      Information(options_.own_chain_sigma_xy_m, options_.own_chain_sigma_yaw_rad);
   for (std::size_t k = 0; k < own_poses.size(); ++k) {
     own_graph.poses.push_back(ToPg(own_poses[k]));
     if (k > 0) {

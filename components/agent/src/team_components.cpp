@@ -478,8 +478,25 @@ class TwoStepOptimizerComponent final : public graph::Component {
                {.doc = "two-step PGO at most this often", .unit = "s", .min = 0.0});
     spec.Param("place_unverified_teammates", &o_.place_unverified_teammates,
                {.doc = "place teammates by the map-to-map guess before any loop is accepted"});
+    spec.Param("global_anchor", &global_anchor_,
+               {.doc = "two-step global step: touched (teammate chain deformed to robust priors "
+                       "on its touched poses), first_loop or rigid (teammate placed rigidly)",
+                .choices = {"touched", "first_loop", "rigid"}});
+    spec.Param("own_chain_sigma_xy_m", &o_.own_chain_sigma_xy_m,
+               {.doc = "own trajectory's chain sigma per keyframe step in the two-step PGO",
+                .unit = "m",
+                .min = 1e-6});
+    spec.Param(
+        "own_chain_sigma_yaw_rad", &o_.own_chain_sigma_yaw_rad,
+        {.doc = "own trajectory's chain yaw sigma per keyframe step", .unit = "rad", .min = 1e-9});
+    spec.Param("chain_from_factors", &o_.two_step.teammate_chain_from_factors,
+               {.doc = "global step: teammate chain with its own information, not the "
+                       "reference's sigmas"});
   }
   Status Start(Context&) override {
+    o_.two_step.anchor = global_anchor_ == "rigid"        ? team::GlobalAnchor::kRigid
+                         : global_anchor_ == "first_loop" ? team::GlobalAnchor::kFirstLoop
+                                                          : team::GlobalAnchor::kTouchedPoses;
     stage_ = std::make_unique<OptimizerStage>(o_);
     return Status::Ok();
   }
@@ -537,6 +554,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
   OptimizerStageOptions o_;
   std::vector<std::string> team_names_{"alpha", "bravo", "charlie"};
   std::string prefix_;
+  std::string global_anchor_ = "touched";
   std::unique_ptr<OptimizerStage> stage_;
   std::vector<msgs::TeamStepStats> steps_;
   Absorber in_;

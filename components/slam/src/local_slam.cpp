@@ -341,8 +341,8 @@ struct LocalSlam::Impl {
     for (std::size_t id = 0; id < landmarks.size(); ++id) {
       known[id] = LandmarkPosition(id);
       // With a radius state the graph point is the centre: predict the near face from here.
-      const auto rho = landmarks[id].in_graph ? graph.PointRadius(static_cast<pg::PointId>(id))
-                                              : std::nullopt;
+      const auto rho =
+          landmarks[id].in_graph ? graph.PointRadius(static_cast<pg::PointId>(id)) : std::nullopt;
       if (rho) {
         const double dx = known[id].x_m - T_map_k.x_m, dy = known[id].y_m - T_map_k.y_m;
         const double d = std::hypot(dx, dy);

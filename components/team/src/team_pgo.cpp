@@ -222,6 +222,10 @@ TeamEstimate TwoStepPgo(const TeamProblem& problem, int own_robot, const TwoStep
       target.push_back(local.Pose(Id(robot, kf)));
     }
     const Pose2 T_own_robot = FitRigid(source, target);
+    if (options.anchor == GlobalAnchor::kRigid) {
+      for (const Pose2& p : rg.poses) traj.push_back(Compose(T_own_robot, p));
+      continue;
+    }
     PoseGraph2d global;
     for (std::size_t k = 0; k < rg.poses.size(); ++k) {
       global.AddPose(Id(robot, static_cast<int>(k)), Compose(T_own_robot, rg.poses[k]));

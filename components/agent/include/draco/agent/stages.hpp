@@ -318,6 +318,12 @@ struct OptimizerStageOptions {
   // is accepted (false: only teammates with accepted loops are placed).
   bool place_unverified_teammates = false;
   int max_teammate_keyframes = 20000;
+  // The own trajectory enters the two-step PGO as a chain of its relative poses with these
+  // sigmas per keyframe step. The reference's 0.1 m / 0.01 rad let true but imprecise loops
+  // bend the own local SLAM (airplane charlie 0.67 -> 1.02 m); 0.03 m / 0.003 rad by
+  // measurement (docs/back-end.md, "Own chain stiffness").
+  double own_chain_sigma_xy_m = 0.03;
+  double own_chain_sigma_yaw_rad = 0.003;
 };
 
 struct TeamEstimate {

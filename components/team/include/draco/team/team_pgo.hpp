@@ -8,7 +8,8 @@
 //  2. Global step, per teammate b with loops: a throw-away problem with b's whole trajectory
 //     (initialised through T_a_b), b's chain as between factors (the reference's sigmas
 //     0.1 m, 0.1 m, 0.01 rad by default) and a robust prior on each touched pose at its step-1
-//     estimate (or, GlobalAnchor::kFirstLoop, b placed rigidly through its first loop).
+//     estimate (or, GlobalAnchor::kFirstLoop, b placed rigidly through its first loop;
+//     GlobalAnchor::kRigid, b placed rigidly by the fit of all its touched poses).
 //     a's poses are not variables here.
 //  Teammates without loops are placed by their map-to-map guess alone.
 //
@@ -65,6 +66,8 @@ bool MapGuess(const TeamProblem& problem, int a, int b, Pose2* T_a_b);
 enum class GlobalAnchor {
   kTouchedPoses,  // a robust prior on every touched teammate pose at its step-1 estimate
   kFirstLoop,     // the reference's: the teammate placed through its first loop (rigidly)
+  kRigid,         // the teammate placed rigidly by the least-squares fit of its touched poses
+                  // to their step-1 estimates (its own trajectory is not deformed)
 };
 
 struct TwoStepOptions {
