@@ -555,9 +555,11 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
 
 }  // namespace
 
-msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
-                                  const MatcherOptions& options, const Coverage* coverage_a,
-                                  const Coverage* coverage_b) {
+namespace {
+
+msgs::ObjectMatch MatchClusters(const ObjectMap& a, const ObjectMap& b,
+                                const MatcherOptions& options, const Coverage* coverage_a,
+                                const Coverage* coverage_b) {
   msgs::ObjectMatch spectral = MatchSpectral(a, b, options, coverage_a, coverage_b);
   if (!options.structure_lines) return spectral;
   const LineMatchResult lines =
@@ -591,6 +593,59 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   match.rmse_m = match.pairs.empty() ? 0.0 : std::sqrt(sum2 / double(match.pairs.size()));
   const int n_min = std::max<int>(1, int(std::min(a.objects.size(), b.objects.size())));
   match.confidence = std::min(1.0, double(match.num_inliers) / double(n_min));
+  return match;
+}
+
+}  // namespace
+
+msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
+                                  const MatcherOptions& options, const Coverage* coverage_a,
+                                  const Coverage* coverage_b) {
+  const auto has_landmark = [](const ObjectMap& m) {
+    return std::any_of(m.objects.begin(), m.objects.end(), [](const auto& o) { return o.landmark; });
+  };
+  if (!has_landmark(a) && !has_landmark(b)) {
+    return MatchClusters(a, b, options, coverage_a, coverage_b);
+  }
+  // Clusters and landmarks apart.
+  ObjectMap ca = a, cb = b;
+  std::erase_if(ca.objects, [](const auto& o) { return o.landmark; });
+  std::erase_if(cb.objects, [](const auto& o) { return o.landmark; });
+  msgs::ObjectMatch clusters = MatchClusters(ca, cb, options, coverage_a, coverage_b);
+  if (!options.landmarks) return clusters;
+  std::vector<const msgs::Object*> la, lb;
+  std::vector<msgs::Point2> pa, pb;
+  for (const auto& o : a.objects) {
+    if (o.landmark) la.push_back(&o), pa.push_back(o.center);
+  }
+  for (const auto& o : b.objects) {
+    if (o.landmark) lb.push_back(&o), pb.push_back(o.center);
+  }
+  const LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, options.landmark);
+  if (!r.found || r.support < options.min_landmark_support ||
+      double(r.runner_up_support) >= options.max_landmark_ambiguity * double(r.support)) {
+    return clusters;
+  }
+  msgs::ObjectMatch match;
+  match.robot_a = a.robot_id;
+  match.robot_b = b.robot_id;
+  match.status = MatchStatus::kMatched;
+  match.by_landmarks = true;
+  match.T_a_b = r.T_a_b;
+  for (const auto& [i, k] : r.pairs) {
+    const msgs::Point2 p = Transform(r.T_a_b, pb[std::size_t(k)]);
+    match.pairs.push_back({la[std::size_t(i)]->id, lb[std::size_t(k)]->id,
+                           std::hypot(p.x_m - pa[std::size_t(i)].x_m,
+                                      p.y_m - pa[std::size_t(i)].y_m)});
+  }
+  match.num_candidates = r.hypotheses;
+  match.num_assignments = r.support;
+  match.num_ransac_inliers = r.support;
+  match.num_inliers = r.support;
+  match.rmse_m = r.rmse_m;
+  match.confidence =
+      std::min(1.0, double(r.support) / double(std::max<std::size_t>(1, std::min(la.size(), lb.size()))));
+  match.ambiguity = double(r.runner_up_support) / double(r.support);
   return match;
 }
 

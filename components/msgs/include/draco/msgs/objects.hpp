@@ -20,6 +20,9 @@ struct Object {
   double yaw_rad = 0.0;    // direction of the long side, in [0, pi)
   int num_points = 0;
   std::vector<int> keyframes;  // indices of the keyframes whose points are in the cluster
+  // A local-SLAM point landmark, not a cluster: center = rect_center = its estimated centre,
+  // length = breadth = its diameter, keyframes = the keyframes that saw it.
+  bool landmark = false;
 };
 
 struct ObjectMap {
@@ -69,6 +72,8 @@ struct ObjectMatch {
   // coincide (their residual is the lateral offset) among the pairs.
   bool by_lines = false;
   int num_line_pairs = 0;
+  // Answer of the landmark path (objects::MatcherOptions::landmarks): pairs of landmarks.
+  bool by_landmarks = false;
 };
 
 inline const char* MatchStatusName(MatchStatus status) {

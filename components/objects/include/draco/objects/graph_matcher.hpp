@@ -21,6 +21,7 @@
 
 #include "draco/msgs/objects.hpp"
 #include "draco/objects/geometry.hpp"
+#include "draco/objects/landmark_matcher.hpp"
 #include "draco/objects/structure_lines.hpp"
 
 namespace draco::objects {
@@ -91,6 +92,14 @@ struct MatcherOptions {
   StructureLineOptions lines;
   int min_line_support = 5;
   double max_line_ambiguity = 0.8;
+  // Landmark path (landmark_matcher.hpp): the objects flagged `landmark` are matched as points
+  // first; an answer with at least min_landmark_support pairs and a runner-up below
+  // max_landmark_ambiguity x its support wins. The other objects go through the spectral (and
+  // structure-line) path as before, which answers when the landmark path does not.
+  bool landmarks = false;
+  LandmarkMatchOptions landmark;
+  int min_landmark_support = 5;
+  double max_landmark_ambiguity = 0.75;
 };
 
 // The area a robot's sonar observed, in its map frame, as a grid of cells (negative evidence:
