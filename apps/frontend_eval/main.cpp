@@ -135,12 +135,26 @@ int main(int argc, char** argv) {
                  "lines: no match when a distinct runner-up has this fraction of the support");
   app.add_option("--line-compact", matcher.lines.max_compact_length_m,
                  "lines: compact objects up to this long m");
+  int landmarks = -1;  // -1: the options' defaults
+  app.add_option("--landmarks", landmarks,
+                 "local-SLAM landmarks seen at least N times join the object maps and are matched "
+                 "as points first (0: off)");
+  app.add_option("--landmark-support", matcher.min_landmark_support,
+                 "landmarks: min pairs of an answer");
+  app.add_option("--landmark-ambiguity", matcher.max_landmark_ambiguity,
+                 "landmarks: no answer when a distinct runner-up has this fraction of the pairs");
+  app.add_option("--landmark-tolerance", matcher.landmark.tolerance_m,
+                 "landmarks: distance agreement and inlier radius m");
   app.add_flag("--track", over_time.track,
                "--over-time: accept a transform only after it won repeatedly (MatchTracker)");
   app.add_option("--track-votes", over_time.tracker.min_votes, "tracker: wins needed");
   app.add_option("--track-dominance", over_time.tracker.dominance,
                  "tracker: votes over every other track's");
   CLI11_PARSE(app, argc, argv);
+  if (landmarks >= 0) {
+    mapper.landmark_min_sightings = landmarks;
+    matcher.landmarks = landmarks > 0;
+  }
   if (corner_min_deg > 0)
     matcher.lines.min_corner_angle_rad = corner_min_deg * std::numbers::pi / 180;
   if (line_angle_deg > 0)

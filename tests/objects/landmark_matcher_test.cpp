@@ -123,8 +123,10 @@ TEST(LandmarkMatcher, ObjectMatcherAnswersByLandmarksAndKeepsIds) {
     mb.objects.push_back(o);
   }
   MatcherOptions options;
+  options.landmarks = false;
   const msgs::ObjectMatch off = MatchObjectMaps(ma, mb, options);
   EXPECT_FALSE(off.by_landmarks);  // landmarks off: they are left out of the cluster path
+  EXPECT_NE(off.status, msgs::MatchStatus::kMatched);
   options.landmarks = true;
   const msgs::ObjectMatch on = MatchObjectMaps(ma, mb, options);
   ASSERT_EQ(on.status, msgs::MatchStatus::kMatched);

@@ -223,21 +223,87 @@ std::vector<Robot> RunRobots(const std::string& mission, const recording::Missio
 
   for (auto& r : robots) {
     AttachTruth(mission, &r);
+    r.landmarks = LoadLandmarks(out_dir + "/slam/" + r.name + ".landmarks.csv");
     r.objects = BuildObjectMap(r, options.mapper);
   }
   return robots;
+}
+
+std::vector<Landmark> LoadLandmarks(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<Landmark> out;
+  if (!in) return out;
+  std::string line;
+  int line_no = 0;
+  const auto fail = [&](const std::string& what) {
+    throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + what);
+  };
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line_no == 1) {
+      if (line.rfind("id,x_m,y_m,", 0) != 0) fail("not a landmarks.csv header");
+      if (line.find(",radius_m,keyframes") == std::string::npos) {
+        fail("written before landmark radius and keyframes were recorded: re-run the local SLAM");
+      }
+      continue;
+    }
+    if (line.empty()) continue;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    if (line.back() == ',') f.emplace_back();
+    if (f.size() != 10) fail("expected 10 fields, found " + std::to_string(f.size()));
+    Landmark l;
+    try {
+      l.id = std::stoi(f[0]);
+      l.p_map = {std::stod(f[1]), std::stod(f[2])};
+      l.radius_m = std::stod(f[8]);
+      std::stringstream ks(f[9]);
+      for (std::string k; std::getline(ks, k, ';');) l.keyframes.push_back(std::stoi(k));
+    } catch (const std::exception&) {
+      fail("a field is not a number");
+    }
+    if (!std::isfinite(l.p_map.x_m) || !std::isfinite(l.p_map.y_m)) fail("position not finite");
+    out.push_back(std::move(l));
+  }
+  return out;
 }
 
 msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOptions& options,
                                double until_s) {
   objects::ObjectMapper mapper(options);
   double last_s = 0.0;
+  int last_index = -1;
   for (const auto& k : r.kfs) {
     if (k.time_s > until_s) break;
     mapper.AddKeyframe(k.index, k.T_map_kf, k.points_kf);
     last_s = k.time_s;
+    last_index = k.index;
   }
-  return mapper.Objects(r.id, last_s);
+  msgs::ObjectMap map = mapper.Objects(r.id, last_s);
+  AppendLandmarks(r, last_index, options.landmark_min_sightings, &map);
+  return map;
+}
+
+void AppendLandmarks(const Robot& r, int last_keyframe, int min_sightings, msgs::ObjectMap* map) {
+  if (min_sightings <= 0) return;
+  std::vector<msgs::Object> landmarks;
+  for (const Landmark& l : r.landmarks) {
+    msgs::Object o;
+    for (const int k : l.keyframes) {
+      if (k <= last_keyframe) o.keyframes.push_back(k);
+    }
+    if (static_cast<int>(o.keyframes.size()) < min_sightings) continue;
+    o.id = 0x40000000u + static_cast<std::uint32_t>(l.id);
+    o.center = o.rect_center = l.p_map;
+    o.length_m = o.breadth_m = 2.0 * l.radius_m;
+    o.num_points = static_cast<int>(o.keyframes.size());
+    o.landmark = true;
+    landmarks.push_back(std::move(o));
+  }
+  std::stable_sort(landmarks.begin(), landmarks.end(),
+                   [](const auto& a, const auto& b) { return a.keyframes.size() > b.keyframes.size(); });
+  for (auto& o : landmarks) map->objects.push_back(std::move(o));
 }
 
 int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,
@@ -290,7 +356,9 @@ std::vector<TimedMatch> MatchOverTime(const Robot& A, const Robot& B,
     }
     TimedMatch m;
     m.time_s = t;
-    const auto a = ma.Objects(A.id, t), b = mb.Objects(B.id, t);
+    auto a = ma.Objects(A.id, t), b = mb.Objects(B.id, t);
+    AppendLandmarks(A, ia > 0 ? A.kfs[ia - 1].index : -1, mapper.landmark_min_sightings, &a);
+    AppendLandmarks(B, ib > 0 ? B.kfs[ib - 1].index : -1, mapper.landmark_min_sightings, &b);
     m.objects_a = static_cast<int>(a.objects.size());
     m.objects_b = static_cast<int>(b.objects.size());
     m.shared = SharedObjects(A, a, B, b);

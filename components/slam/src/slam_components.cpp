@@ -214,13 +214,19 @@ class LocalSlamComponent final : public graph::Component {
       pcd += line;
     }
     if (o_.landmarks) {
-      std::string csv = "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph,unstable\n";
+      std::string csv =
+          "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph,unstable,radius_m,"
+          "keyframes\n";
       for (const auto& l : slam_.Landmarks()) {
-        char line[160];
-        std::snprintf(line, sizeof(line), "%d,%.3f,%.3f,%d,%d,%d,%d,%d\n", l.id, l.p_map.x_m,
+        char line[200];
+        std::snprintf(line, sizeof(line), "%d,%.3f,%.3f,%d,%d,%d,%d,%d,%.3f,", l.id, l.p_map.x_m,
                       l.p_map.y_m, l.num_observations, l.first_keyframe, l.last_keyframe,
-                      l.in_graph ? 1 : 0, l.unstable ? 1 : 0);
+                      l.in_graph ? 1 : 0, l.unstable ? 1 : 0, l.radius_m);
         csv += line;
+        for (std::size_t i = 0; i < l.keyframes.size(); ++i) {
+          csv += (i ? ";" : "") + std::to_string(l.keyframes[i]);
+        }
+        csv += "\n";
       }
       if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, "landmarks.csv"), csv)) {
         return Status::Fatal("cannot write " + OutPath(ctx, prefix_, "landmarks.csv"));

@@ -20,6 +20,18 @@ namespace draco::frontend {
 
 using msgs::Pose2;
 
+// A point landmark of the robot's local SLAM (OUT/slam/<robot>.landmarks.csv).
+struct Landmark {
+  int id = 0;
+  msgs::Point2 p_map;
+  double radius_m = 0.0;
+  std::vector<int> keyframes;  // that saw it, ascending
+};
+
+// Reads a landmarks.csv written by slam.LocalSlam; a missing file gives no landmarks, a
+// malformed one throws std::runtime_error naming the file and line.
+std::vector<Landmark> LoadLandmarks(const std::string& path);
+
 struct Robot {
   std::string name;
   int id = 0;
@@ -28,6 +40,7 @@ struct Robot {
   std::vector<char> has_truth;
   Pose2 T_world_map;  // Umeyama alignment of the keyframes to the truth
   msgs::ObjectMap objects;
+  std::vector<Landmark> landmarks;
   double slam_wall_s = 0.0;
 };
 
@@ -47,9 +60,14 @@ struct SlamRunOptions {
   objects::ObjectMapperOptions mapper;  // object map from the final keyframes
 };
 
-// Object map from the keyframes with time_s <= until_s (final optimised poses).
+// Object map from the keyframes with time_s <= until_s (final optimised poses); with
+// options.landmark_min_sightings > 0 the landmarks seen at least that often by then join it
+// (ids 0x40000000 + landmark id, flagged `landmark`, most-seen first).
 msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOptions& options,
                                double until_s = 1e300);
+// Appends r's landmarks with at least min_sightings sightings among keyframes <= last_keyframe
+// (nothing when min_sightings <= 0).
+void AppendLandmarks(const Robot& r, int last_keyframe, int min_sightings, msgs::ObjectMap* map);
 
 // Local SLAM of every robot of the mission (graph outputs in out_dir/slam: trajectory,
 // dead reckoning, pose_graph.g2o, ... per robot), then truth at the keyframes, the map-to-world

@@ -96,10 +96,12 @@ struct MatcherOptions {
   // first; an answer with at least min_landmark_support pairs and a runner-up below
   // max_landmark_ambiguity x its support wins. The other objects go through the spectral (and
   // structure-line) path as before, which answers when the landmark path does not.
-  bool landmarks = false;
+  // On by default (docs/front-end.md, "Landmark matching"); maps without landmark objects
+  // (the fleet's, for now) are matched as before.
+  bool landmarks = true;
   LandmarkMatchOptions landmark;
   int min_landmark_support = 5;
-  double max_landmark_ambiguity = 0.75;
+  double max_landmark_ambiguity = 0.85;
 };
 
 // The area a robot's sonar observed, in its map frame, as a grid of cells (negative evidence:

@@ -51,6 +51,9 @@ struct ObjectMapperOptions {
   // UpdatePoses re-clusters when a keyframe moved more than this.
   double move_translation_m = 0.05;
   double move_rotation_rad = 0.002;
+  // The local SLAM's point landmarks seen at least this often join the object map as objects
+  // flagged `landmark` (callers that hold them: frontend::BuildObjectMap); 0: not at all.
+  int landmark_min_sightings = 2;
 };
 
 struct KeyframePose {
