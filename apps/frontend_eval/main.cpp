@@ -143,6 +143,10 @@ int main(int argc, char** argv) {
                  "landmarks: min pairs of an answer");
   app.add_option("--landmark-ambiguity", matcher.max_landmark_ambiguity,
                  "landmarks: no answer when a distinct runner-up has this fraction of the pairs");
+  app.add_option("--landmark-wide-tolerance", matcher.wide_landmark_tolerance_m,
+                 "landmarks: second pass tolerance m (0: no second pass)");
+  app.add_option("--landmark-wide-ambiguity", matcher.wide_max_landmark_ambiguity,
+                 "landmarks: second pass ambiguity limit");
   app.add_option("--landmark-tolerance", matcher.landmark.tolerance_m,
                  "landmarks: distance agreement and inlier radius m");
   app.add_flag("--track", over_time.track,

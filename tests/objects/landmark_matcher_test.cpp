@@ -45,7 +45,8 @@ TwoMaps MakeMaps(unsigned seed) {
   }
   TwoMaps m;
   const Pose2 T_b_a = Inverse(m.T_a_b);
-  for (int i = 0; i < 16; ++i) m.a.push_back({world[i].x_m + noise(rng), world[i].y_m + noise(rng)});
+  for (int i = 0; i < 16; ++i)
+    m.a.push_back({world[i].x_m + noise(rng), world[i].y_m + noise(rng)});
   for (int i = 7; i < 21; ++i) {
     const Point2 p = Apply(T_b_a, world[i]);
     m.b.push_back({p.x_m + noise(rng), p.y_m + noise(rng)});
@@ -56,7 +57,8 @@ TwoMaps MakeMaps(unsigned seed) {
 // Where T places b's centroid against where the true transform does.
 double PlacementError(const Pose2& T, const TwoMaps& m) {
   Point2 c{0.0, 0.0};
-  for (const auto& p : m.b) c.x_m += p.x_m / double(m.b.size()), c.y_m += p.y_m / double(m.b.size());
+  for (const auto& p : m.b)
+    c.x_m += p.x_m / double(m.b.size()), c.y_m += p.y_m / double(m.b.size());
   const Point2 p = Apply(T, c), q = Apply(m.T_a_b, c);
   return std::hypot(p.x_m - q.x_m, p.y_m - q.y_m);
 }
@@ -70,8 +72,7 @@ TEST(LandmarkMatcher, RecoversTheTransformFromSharedPoints) {
     EXPECT_GE(r.support, 8) << "seed " << seed;
     EXPECT_LE(r.support, 9) << "seed " << seed;
     EXPECT_LT(PlacementError(r.T_a_b, m), 0.5) << "seed " << seed;
-    EXPECT_NEAR(std::remainder(r.T_a_b.yaw_rad - m.T_a_b.yaw_rad, 2 * std::numbers::pi), 0.0,
-                0.03);
+    EXPECT_NEAR(std::remainder(r.T_a_b.yaw_rad - m.T_a_b.yaw_rad, 2 * std::numbers::pi), 0.0, 0.03);
     EXPECT_LT(r.runner_up_support, 5);
     EXPECT_LT(r.rmse_m, 0.9);  // sqrt(2) x sqrt(2) x 0.3 m expected
     // Each pair joins a's object i with b's object i - 7 + ... : the same world object.

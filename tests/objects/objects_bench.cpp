@@ -69,6 +69,34 @@ BENCHMARK(BM_MatchSparseCode)
 BENCHMARK(BM_MatchSparsePaper)->Arg(25)->Arg(200)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MatchDenseCode)->Arg(10)->Arg(20)->Arg(25)->Unit(benchmark::kMillisecond);
 
+// Landmark matching (landmark_matcher.hpp) on the object centres of the same two views as
+// points; the peer is the sparse object-graph matching of the same maps above.
+void BM_MatchLandmarkPoints(benchmark::State& state) {
+  const auto [a, b] = Views(static_cast<int>(state.range(0)), 42);
+  std::vector<draco::msgs::Point2> pa, pb;
+  for (const auto& o : a.objects) pa.push_back(o.center);
+  for (const auto& o : b.objects) pb.push_back(o.center);
+  LandmarkMatchOptions options;
+  options.max_points = 1000;
+  LandmarkMatchResult r;
+  for (auto _ : state) {
+    r = MatchLandmarkPoints(pa, pb, options);
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["n_a"] = double(pa.size());
+  state.counters["n_b"] = double(pb.size());
+  state.counters["support"] = r.support;
+  state.counters["runner_up"] = r.runner_up_support;
+  state.counters["hypotheses"] = r.hypotheses;
+}
+BENCHMARK(BM_MatchLandmarkPoints)
+    ->Arg(25)
+    ->Arg(50)
+    ->Arg(100)
+    ->Arg(200)
+    ->Arg(500)
+    ->Unit(benchmark::kMillisecond);
+
 // A robot on a lawnmower path over a 200 m square of 60 piles; each keyframe sees the
 // outline of every pile within 30 m (12 points each) and 5 clutter points.
 struct Mission {

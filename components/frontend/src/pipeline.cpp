@@ -301,8 +301,9 @@ void AppendLandmarks(const Robot& r, int last_keyframe, int min_sightings, msgs:
     o.landmark = true;
     landmarks.push_back(std::move(o));
   }
-  std::stable_sort(landmarks.begin(), landmarks.end(),
-                   [](const auto& a, const auto& b) { return a.keyframes.size() > b.keyframes.size(); });
+  std::stable_sort(landmarks.begin(), landmarks.end(), [](const auto& a, const auto& b) {
+    return a.keyframes.size() > b.keyframes.size();
+  });
   for (auto& o : landmarks) map->objects.push_back(std::move(o));
 }
 

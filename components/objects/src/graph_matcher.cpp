@@ -602,7 +602,8 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
                                   const MatcherOptions& options, const Coverage* coverage_a,
                                   const Coverage* coverage_b) {
   const auto has_landmark = [](const ObjectMap& m) {
-    return std::any_of(m.objects.begin(), m.objects.end(), [](const auto& o) { return o.landmark; });
+    return std::any_of(m.objects.begin(), m.objects.end(),
+                       [](const auto& o) { return o.landmark; });
   };
   if (!has_landmark(a) && !has_landmark(b)) {
     return MatchClusters(a, b, options, coverage_a, coverage_b);
@@ -621,10 +622,17 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   for (const auto& o : b.objects) {
     if (o.landmark) lb.push_back(&o), pb.push_back(o.center);
   }
-  const LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, options.landmark);
-  if (!r.found || r.support < options.min_landmark_support ||
-      double(r.runner_up_support) >= options.max_landmark_ambiguity * double(r.support)) {
-    return clusters;
+  const auto accept = [&](const LandmarkMatchResult& m, double max_ambiguity) {
+    return m.found && m.support >= options.min_landmark_support &&
+           double(m.runner_up_support) < max_ambiguity * double(m.support);
+  };
+  LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, options.landmark);
+  if (!accept(r, options.max_landmark_ambiguity)) {
+    if (!(options.wide_landmark_tolerance_m > 0.0)) return clusters;
+    LandmarkMatchOptions wide = options.landmark;
+    wide.tolerance_m = options.wide_landmark_tolerance_m;
+    r = MatchLandmarkPoints(pa, pb, wide);
+    if (!accept(r, options.wide_max_landmark_ambiguity)) return clusters;
   }
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
@@ -634,17 +642,17 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   match.T_a_b = r.T_a_b;
   for (const auto& [i, k] : r.pairs) {
     const msgs::Point2 p = Transform(r.T_a_b, pb[std::size_t(k)]);
-    match.pairs.push_back({la[std::size_t(i)]->id, lb[std::size_t(k)]->id,
-                           std::hypot(p.x_m - pa[std::size_t(i)].x_m,
-                                      p.y_m - pa[std::size_t(i)].y_m)});
+    match.pairs.push_back(
+        {la[std::size_t(i)]->id, lb[std::size_t(k)]->id,
+         std::hypot(p.x_m - pa[std::size_t(i)].x_m, p.y_m - pa[std::size_t(i)].y_m)});
   }
   match.num_candidates = r.hypotheses;
   match.num_assignments = r.support;
   match.num_ransac_inliers = r.support;
   match.num_inliers = r.support;
   match.rmse_m = r.rmse_m;
-  match.confidence =
-      std::min(1.0, double(r.support) / double(std::max<std::size_t>(1, std::min(la.size(), lb.size()))));
+  match.confidence = std::min(
+      1.0, double(r.support) / double(std::max<std::size_t>(1, std::min(la.size(), lb.size()))));
   match.ambiguity = double(r.runner_up_support) / double(r.support);
   return match;
 }

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
-#include <unordered_map>
 
 #include "draco/msgs/rigid_fit.hpp"
 
@@ -21,23 +20,45 @@ Point2 Apply(const Pose2& T, const Point2& p) {
   return {c * p.x_m - s * p.y_m + T.x_m, s * p.x_m + c * p.y_m + T.y_m};
 }
 
-// Points of map a in a grid of cell tolerance_m, for the nearest point within the tolerance.
+// Points of map a in a dense grid of cell tolerance_m over their bounding box, for the
+// nearest point within the tolerance.
 class Grid {
  public:
   Grid(const std::vector<Point2>& points, double cell_m) : points_(points), cell_(cell_m) {
-    for (std::size_t i = 0; i < points.size(); ++i) cells_[Key(Cell(points[i].x_m), Cell(points[i].y_m))].push_back(int(i));
+    double x1 = points[0].x_m, y1 = points[0].y_m;
+    x0_ = x1, y0_ = y1;
+    for (const auto& p : points) {
+      x0_ = std::min(x0_, p.x_m), y0_ = std::min(y0_, p.y_m);
+      x1 = std::max(x1, p.x_m), y1 = std::max(y1, p.y_m);
+    }
+    nx_ = static_cast<std::int64_t>((x1 - x0_) / cell_) + 1;
+    ny_ = static_cast<std::int64_t>((y1 - y0_) / cell_) + 1;
+    start_.assign(std::size_t(nx_ * ny_ + 1), 0);
+    std::vector<std::int64_t> cell(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      cell[i] = CellX(points[i].x_m) * ny_ + CellY(points[i].y_m);
+      ++start_[std::size_t(cell[i]) + 1];
+    }
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    index_.resize(points.size());
+    std::vector<int> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < points.size(); ++i)
+      index_[std::size_t(fill[std::size_t(cell[i])]++)] = int(i);
   }
   // Index of the nearest point within r (r <= cell), -1 when none.
   int Nearest(const Point2& p, double r) const {
-    const std::int64_t cx = Cell(p.x_m), cy = Cell(p.y_m);
+    const std::int64_t cx = CellX(p.x_m), cy = CellY(p.y_m);
+    if (cx < -1 || cy < -1 || cx > nx_ || cy > ny_) return -1;
     int best = -1;
     double best_d2 = r * r;
-    for (std::int64_t dx = -1; dx <= 1; ++dx) {
-      for (std::int64_t dy = -1; dy <= 1; ++dy) {
-        const auto it = cells_.find(Key(cx + dx, cy + dy));
-        if (it == cells_.end()) continue;
-        for (const int i : it->second) {
-          const double ex = points_[i].x_m - p.x_m, ey = points_[i].y_m - p.y_m;
+    for (std::int64_t x = std::max<std::int64_t>(cx - 1, 0); x <= std::min(cx + 1, nx_ - 1); ++x) {
+      for (std::int64_t y = std::max<std::int64_t>(cy - 1, 0); y <= std::min(cy + 1, ny_ - 1);
+           ++y) {
+        const std::size_t c = std::size_t(x * ny_ + y);
+        for (int k = start_[c]; k < start_[c + 1]; ++k) {
+          const int i = index_[std::size_t(k)];
+          const double ex = points_[std::size_t(i)].x_m - p.x_m,
+                       ey = points_[std::size_t(i)].y_m - p.y_m;
           const double d2 = ex * ex + ey * ey;
           if (d2 <= best_d2) best_d2 = d2, best = i;
         }
@@ -47,11 +68,17 @@ class Grid {
   }
 
  private:
-  std::int64_t Cell(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_)); }
-  static std::int64_t Key(std::int64_t x, std::int64_t y) { return x * 1000003 + y; }
+  std::int64_t CellX(double v) const {
+    return static_cast<std::int64_t>(std::floor((v - x0_) / cell_));
+  }
+  std::int64_t CellY(double v) const {
+    return static_cast<std::int64_t>(std::floor((v - y0_) / cell_));
+  }
   const std::vector<Point2>& points_;
   double cell_;
-  std::unordered_map<std::int64_t, std::vector<int>> cells_;
+  double x0_ = 0.0, y0_ = 0.0;
+  std::int64_t nx_ = 1, ny_ = 1;
+  std::vector<int> start_, index_;
 };
 
 // Inlier pairs of T_a_b: each b point to its nearest a point within r, an a point used once
@@ -72,6 +99,22 @@ std::vector<std::pair<int, int>> Inliers(const Grid& grid, const std::vector<Poi
     if (owner[i] >= 0) out.emplace_back(int(i), owner[i]);
   }
   return out;
+}
+
+// Support of T_a_b: b points with an a point within r, each a point counted once (stamp[i]
+// holds the last hypothesis that used a point i).
+// Stops early (returning a lower bound) once even every remaining b point could not bring it
+// to `needed`.
+int Support(const Grid& grid, const std::vector<Point2>& b, const Pose2& T, double r, int tag,
+            std::vector<int>* stamp, int needed) {
+  int n = 0;
+  const int m = int(b.size());
+  for (int k = 0; k < m; ++k) {
+    if (n + (m - k) < needed) return n;
+    const int i = grid.Nearest(Apply(T, b[std::size_t(k)]), r);
+    if (i >= 0 && (*stamp)[std::size_t(i)] != tag) (*stamp)[std::size_t(i)] = tag, ++n;
+  }
+  return n;
 }
 
 struct Hypothesis {
@@ -104,13 +147,14 @@ LandmarkMatchResult MatchLandmarkPoints(const std::vector<Point2>& a_in,
   std::sort(pairs_b.begin(), pairs_b.end(), [](const Pair& x, const Pair& y) {
     return x.d < y.d || (x.d == y.d && (x.k < y.k || (x.k == y.k && x.l < y.l)));
   });
-  std::vector<Hypothesis> kept;  // support >= 2
+  std::vector<Hypothesis> kept;  // support >= 3
+  std::vector<int> stamp(a.size(), 0);
   Hypothesis best;
   for (int i = 0; i < int(a.size()); ++i) {
     for (int j = i + 1; j < int(a.size()); ++j) {
       const double ax = a[j].x_m - a[i].x_m, ay = a[j].y_m - a[i].y_m;
       const double d = std::hypot(ax, ay);
-      if (d < o.min_pair_distance_m) continue;
+      if (d < o.min_pair_distance_m || d > o.max_pair_distance_m) continue;
       auto it = std::lower_bound(pairs_b.begin(), pairs_b.end(), d - o.tolerance_m,
                                  [](const Pair& p, double v) { return p.d < v; });
       for (; it != pairs_b.end() && it->d <= d + o.tolerance_m; ++it) {
@@ -122,8 +166,10 @@ LandmarkMatchResult MatchLandmarkPoints(const std::vector<Point2>& a_in,
           const double mx = 0.5 * (bk.x_m + bl.x_m), my = 0.5 * (bk.y_m + bl.y_m);
           const Pose2 T{0.5 * (a[i].x_m + a[j].x_m) - (c * mx - s * my),
                         0.5 * (a[i].y_m + a[j].y_m) - (s * mx + c * my), Wrap(yaw)};
-          const int support = int(Inliers(grid, a, b, T, o.tolerance_m).size());
-          ++out.hypotheses;
+          // Hypotheses under half the best cannot matter (as the answer or as its runner-up
+          // under any ambiguity limit >= 0.5): scored only far enough to know that.
+          const int needed = std::max(3, best.support / 2);
+          const int support = Support(grid, b, T, o.tolerance_m, ++out.hypotheses, &stamp, needed);
           if (support < 2) continue;
           if (support >= 3) kept.push_back({support, T});
           if (support > best.support) best = {support, T};

@@ -607,10 +607,15 @@ std::vector<LandmarkRecord> LocalSlam::Landmarks() const {
   std::vector<LandmarkRecord> out;
   for (std::size_t id = 0; id < impl_->landmarks.size(); ++id) {
     const auto& l = impl_->landmarks[id];
-    LandmarkRecord r{static_cast<int>(id), impl_->LandmarkPosition(id),
-                     static_cast<int>(l.sightings.size()), l.sightings.front().keyframe,
-                     l.sightings.back().keyframe, l.in_graph, l.unstable};
-    if (l.in_graph) r.radius_m = impl_->graph.PointRadius(static_cast<pg::PointId>(id)).value_or(0.0);
+    LandmarkRecord r{static_cast<int>(id),
+                     impl_->LandmarkPosition(id),
+                     static_cast<int>(l.sightings.size()),
+                     l.sightings.front().keyframe,
+                     l.sightings.back().keyframe,
+                     l.in_graph,
+                     l.unstable};
+    if (l.in_graph)
+      r.radius_m = impl_->graph.PointRadius(static_cast<pg::PointId>(id)).value_or(0.0);
     for (const auto& s : l.sightings) r.keyframes.push_back(s.keyframe);
     out.push_back(std::move(r));
   }

@@ -102,6 +102,10 @@ struct MatcherOptions {
   LandmarkMatchOptions landmark;
   int min_landmark_support = 5;
   double max_landmark_ambiguity = 0.85;
+  // When that finds no answer: a second pass with a wider tolerance (landmark estimates of
+  // drifting robots disagree by more than 1 m) and a stricter ambiguity test (0: no pass).
+  double wide_landmark_tolerance_m = 1.5;
+  double wide_max_landmark_ambiguity = 0.8;
 };
 
 // The area a robot's sonar observed, in its map frame, as a grid of cells (negative evidence:

@@ -6,13 +6,14 @@
 // different sides hold nearly the same point. Where the DBSCAN object maps of two robots share
 // almost nothing (robots that see opposite faces of a pier), their landmark sets still do.
 //
-// Exhaustive two-point consensus: every pair (i, j) of map a's points at least
-// min_pair_distance_m apart, against every ordered pair (k, l) of map b's whose distance
-// agrees within tolerance_m, gives the rigid T_a_b taking k -> i and l -> j; its support is
-// the number of b points that land within tolerance_m of an a point (one a point per b point,
-// greedy by distance). The best hypothesis is refined by a least-squares fit to its inliers
+// Exhaustive two-point consensus: every pair (i, j) of map a's points between
+// min_pair_distance_m and max_pair_distance_m apart, against every ordered pair (k, l) of map b's
+// whose distance agrees within tolerance_m, gives the rigid T_a_b taking k -> i and l -> j; its
+// support is the number of b points that land within tolerance_m of an a point (one a point per b
+// point, greedy by distance). The best hypothesis is refined by a least-squares fit to its inliers
 // and re-scored; the runner-up is the best hypothesis distinct from it (more than distinct_m
-// apart at b's centroid, or distinct_rad in yaw). Deterministic: no sampling.
+// apart at b's centroid, or distinct_rad in yaw; reported when at least half the best
+// support, else 0 or a lower bound). Deterministic: no sampling.
 #pragma once
 
 #include <utility>
@@ -25,6 +26,8 @@ namespace draco::objects {
 struct LandmarkMatchOptions {
   double tolerance_m = 1.0;
   double min_pair_distance_m = 3.0;
+  // Pairs are local: at constant density the hypotheses then grow as n^2, not n^4.
+  double max_pair_distance_m = 40.0;
   int max_points = 150;  // per map; the first ones are used (callers order by evidence)
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg

@@ -151,8 +151,8 @@ struct LandmarkRecord {
   int first_keyframe = 0;
   int last_keyframe = 0;
   bool in_graph = false;
-  bool unstable = false;   // failed the viewpoint-stability test
-  double radius_m = 0.0;   // radius state (0 without one)
+  bool unstable = false;       // failed the viewpoint-stability test
+  double radius_m = 0.0;       // radius state (0 without one)
   std::vector<int> keyframes;  // the keyframes that saw it, ascending
 };
 
