@@ -243,6 +243,30 @@ TEST(FleetCodec, ObjectMapRoundTrip) {
   EXPECT_TRUE(d.upserts.empty() && d.removed.empty());
 }
 
+TEST(FleetCodec, LandmarkObjectsKeepTheirFlagThroughTheId) {
+  msgs::ObjectMapUpdate u;
+  u.header = Header();
+  u.upserts = {Obj(3, 1.0, 2.0), Obj(msgs::kLandmarkIdBit + 5, 10.0, -4.0)};
+  u.upserts[1].landmark = true;
+  u.upserts[1].length_m = u.upserts[1].breadth_m = 1.2;
+  msgs::ObjectMapUpdate d;
+  const auto bytes = Encode(u);
+  ASSERT_TRUE(Decode(bytes, &d));
+  ASSERT_EQ(d.upserts.size(), 2u);
+  EXPECT_FALSE(d.upserts[0].landmark);
+  EXPECT_TRUE(d.upserts[1].landmark);
+  EXPECT_EQ(d.upserts[1].id, msgs::kLandmarkIdBit + 5);
+  EXPECT_NEAR(d.upserts[1].center.x_m, 10.0, kO.position_step_m);
+  // A flag that disagrees with the id is refused at encoding, naming the object.
+  u.upserts[0].landmark = true;
+  try {
+    Encode(u);
+    ADD_FAILURE() << "encoded a landmark flag on a cluster id";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("object 3"), std::string::npos) << e.what();
+  }
+}
+
 TEST(FleetCodec, KeyframePosesRoundTrip) {
   const auto p = MakePoses();
   const auto bytes = Encode(p);

@@ -96,6 +96,15 @@ void OwnKeyframes::OnKeyframe(const msgs::Keyframe& keyframe) {
 }
 
 void OwnKeyframes::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
+  const auto same = [](const msgs::LandmarkEstimate& a, const msgs::LandmarkEstimate& b) {
+    return a.id == b.id && a.p_map.x_m == b.p_map.x_m && a.p_map.y_m == b.p_map.y_m &&
+           a.radius_m == b.radius_m && a.keyframes == b.keyframes;
+  };
+  if (!std::equal(landmarks_.begin(), landmarks_.end(), trajectory.landmarks.begin(),
+                  trajectory.landmarks.end(), same)) {
+    landmarks_ = trajectory.landmarks;
+    ++version_;
+  }
   for (const auto& p : trajectory.keyframes) {
     if (p.index < 0 || !Finite(p.T_map_kf)) continue;
     auto& kf = own_[p.index];
@@ -220,8 +229,12 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
         changed = true;
       }
     }
+    if (!own_.landmarks().empty()) changed = true;  // landmarks move with every solve
     if (changed) {
       objects_ = mapper_->Objects(options_.robot_id, now_s);
+      const int last = mapped_.empty() ? -1 : *mapped_.rbegin();
+      objects::AppendLandmarks(own_.landmarks(), last, options_.mapper.landmark_min_sightings,
+                               &objects_);
       ++version_;
     }
     seen_version_ = own_.version();

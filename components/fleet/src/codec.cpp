@@ -378,6 +378,8 @@ std::vector<std::uint8_t> Encode(const msgs::ObjectMapUpdate& m, const CodecOpti
     for (std::size_t i = 0; i < objs.size(); ++i) {
       const msgs::Object& ob = *objs[i];
       if (i > 0 && ob.id == prev) e.Throw(Fmt("object id %u appears twice", ob.id));
+      if (ob.landmark != ((ob.id & msgs::kLandmarkIdBit) != 0))
+        e.Throw(Fmt("object %u: the landmark flag and the id's landmark bit disagree", ob.id));
       ids.push_back(i == 0 ? ob.id : ob.id - prev - 1);
       prev = ob.id;
       const std::int64_t qx = e.Coordinate(ob.center.x_m, o.position_step_m, "object centre");
@@ -512,6 +514,7 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::ObjectMapUpdat
           return false;
         ob.yaw_rad = static_cast<double>(yaw[i]) * std::numbers::pi / (1 << kObjectYawBits);
         ob.num_points = static_cast<int>(np[i]);
+        ob.landmark = (ob.id & msgs::kLandmarkIdBit) != 0;  // carried in the id
       }
     }
     std::size_t nr = 0;

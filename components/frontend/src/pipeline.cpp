@@ -286,25 +286,7 @@ msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOption
 }
 
 void AppendLandmarks(const Robot& r, int last_keyframe, int min_sightings, msgs::ObjectMap* map) {
-  if (min_sightings <= 0) return;
-  std::vector<msgs::Object> landmarks;
-  for (const Landmark& l : r.landmarks) {
-    msgs::Object o;
-    for (const int k : l.keyframes) {
-      if (k <= last_keyframe) o.keyframes.push_back(k);
-    }
-    if (static_cast<int>(o.keyframes.size()) < min_sightings) continue;
-    o.id = 0x40000000u + static_cast<std::uint32_t>(l.id);
-    o.center = o.rect_center = l.p_map;
-    o.length_m = o.breadth_m = 2.0 * l.radius_m;
-    o.num_points = static_cast<int>(o.keyframes.size());
-    o.landmark = true;
-    landmarks.push_back(std::move(o));
-  }
-  std::stable_sort(landmarks.begin(), landmarks.end(), [](const auto& a, const auto& b) {
-    return a.keyframes.size() > b.keyframes.size();
-  });
-  for (auto& o : landmarks) map->objects.push_back(std::move(o));
+  objects::AppendLandmarks(r.landmarks, last_keyframe, min_sightings, map);
 }
 
 int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,

@@ -232,4 +232,28 @@ msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) const {
   return map;
 }
 
+void AppendLandmarks(const std::vector<msgs::LandmarkEstimate>& landmarks, int last_keyframe,
+                     int min_sightings, msgs::ObjectMap* map) {
+  if (min_sightings <= 0) return;
+  std::vector<msgs::Object> out;
+  for (const auto& l : landmarks) {
+    if (l.id < 0 || !std::isfinite(l.p_map.x_m) || !std::isfinite(l.p_map.y_m)) continue;
+    msgs::Object o;
+    for (const int k : l.keyframes) {
+      if (k <= last_keyframe) o.keyframes.push_back(k);
+    }
+    if (static_cast<int>(o.keyframes.size()) < min_sightings) continue;
+    o.id = msgs::kLandmarkIdBit + static_cast<std::uint32_t>(l.id);
+    o.center = o.rect_center = l.p_map;
+    o.length_m = o.breadth_m = 2.0 * std::max(0.0, l.radius_m);
+    o.num_points = static_cast<int>(o.keyframes.size());
+    o.landmark = true;
+    out.push_back(std::move(o));
+  }
+  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.keyframes.size() > b.keyframes.size();
+  });
+  for (auto& o : out) map->objects.push_back(std::move(o));
+}
+
 }  // namespace draco::objects

@@ -258,6 +258,12 @@ class LocalSlamComponent final : public graph::Component {
     }
     t.time_s = t.keyframes.empty() ? 0.0 : t.keyframes.back().time_s;
     t.loops_accepted = loops_accepted_;
+    if (o_.landmarks) {
+      for (auto& l : slam_.Landmarks()) {
+        if (l.unstable) continue;
+        t.landmarks.push_back({l.id, l.p_map, l.radius_m, std::move(l.keyframes)});
+      }
+    }
     trajectory_.PublishAt(ctx.Now(), std::move(t));
   }
 

@@ -66,9 +66,12 @@ class OwnKeyframes {
              std::vector<double>* times) const;
   std::uint64_t version() const { return version_; }              // any change
   std::uint64_t poses_version() const { return poses_version_; }  // a change to publish
+  // The local SLAM's landmarks of the newest trajectory.
+  const std::vector<msgs::LandmarkEstimate>& landmarks() const { return landmarks_; }
 
  private:
   std::map<int, Entry> own_;
+  std::vector<msgs::LandmarkEstimate> landmarks_;
   std::uint64_t version_ = 0;
   std::uint64_t poses_version_ = 0;
 };

@@ -21,12 +21,7 @@ namespace draco::frontend {
 using msgs::Pose2;
 
 // A point landmark of the robot's local SLAM (OUT/slam/<robot>.landmarks.csv).
-struct Landmark {
-  int id = 0;
-  msgs::Point2 p_map;
-  double radius_m = 0.0;
-  std::vector<int> keyframes;  // that saw it, ascending
-};
+using Landmark = msgs::LandmarkEstimate;
 
 // Reads a landmarks.csv written by slam.LocalSlam; a missing file gives no landmarks, a
 // malformed one throws std::runtime_error naming the file and line.

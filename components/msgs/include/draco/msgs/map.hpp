@@ -13,10 +13,19 @@ struct KeyframePose {
   Pose2 T_map_kf;
 };
 
+// A point landmark of the local SLAM (components/slam): an object centre in the map frame.
+struct LandmarkEstimate {
+  int id = 0;
+  Point2 p_map;
+  double radius_m = 0.0;
+  std::vector<int> keyframes;  // that saw it, ascending
+};
+
 struct KeyframeTrajectory {
   double time_s = 0.0;  // time of the newest keyframe
   std::vector<KeyframePose> keyframes;
   int loops_accepted = 0;  // intra-robot loop closures in the graph so far
+  std::vector<LandmarkEstimate> landmarks;  // empty when the local SLAM has none
 };
 
 }  // namespace draco::msgs

@@ -22,8 +22,11 @@ struct Object {
   std::vector<int> keyframes;  // indices of the keyframes whose points are in the cluster
   // A local-SLAM point landmark, not a cluster: center = rect_center = its estimated centre,
   // length = breadth = its diameter, keyframes = the keyframes that saw it.
-  bool landmark = false;
+  bool landmark = false;  // == (id & kLandmarkIdBit) != 0: the link carries it in the id
 };
+
+// Object ids of landmarks: kLandmarkIdBit + the landmark's id (cluster ids stay below).
+constexpr std::uint32_t kLandmarkIdBit = 0x40000000u;
 
 struct ObjectMap {
   int robot_id = 0;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "draco/msgs/map.hpp"
 #include "draco/msgs/objects.hpp"
 #include "draco/msgs/slam.hpp"
 #include "draco/objects/dbscan.hpp"
@@ -55,6 +56,13 @@ struct ObjectMapperOptions {
   // flagged `landmark` (callers that hold them: frontend::BuildObjectMap); 0: not at all.
   int landmark_min_sightings = 2;
 };
+
+// Appends the landmarks seen at least min_sightings times among keyframes <= last_keyframe to
+// map as objects flagged `landmark` (id kLandmarkIdBit + landmark id, centre = its estimate,
+// length = breadth = its diameter, keyframes = those sightings), most-seen first. Nothing when
+// min_sightings <= 0.
+void AppendLandmarks(const std::vector<msgs::LandmarkEstimate>& landmarks, int last_keyframe,
+                     int min_sightings, msgs::ObjectMap* map);
 
 struct KeyframePose {
   int index = 0;
