@@ -149,6 +149,7 @@ int main(int argc, char** argv) {
   team::TwoStepOptions two_step;
   team::FullOptions full_options;
   double loop_sigma_m = 0.0, loop_sigma_deg = 0.0;
+  bool shared_transforms = false;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
   app.add_option("--graph", slam.graph_path, "local-SLAM graph YAML");
@@ -176,6 +177,9 @@ int main(int argc, char** argv) {
   app.add_option("--loop-sigma-m", loop_sigma_m,
                  "fixed inter-robot loop sigma (m) in both PGOs (0: the loop's own covariance)");
   app.add_option("--loop-sigma-deg", loop_sigma_deg, "fixed inter-robot loop sigma (deg)");
+  app.add_flag("--shared-transforms", shared_transforms,
+               "a teammate the own matching does not place is placed through the teammates' "
+               "map-to-map transforms (as if shared over the link), when they connect it");
   CLI11_PARSE(app, argc, argv);
   ro.min_overlap = 0.0;
   two_step.anchor = global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
@@ -264,10 +268,35 @@ int main(int argc, char** argv) {
       }
       std::vector<Pose2> T_own(robots.size());  // T_a_i guess (identity when none)
       std::string placed_by;
+      // Teammates' own matches, as the map-to-map transforms they would share.
+      team::TeamProblem others;
+      if (shared_transforms) {
+        // The own matches first, then the teammates' (one transform per robot pair).
+        for (int i : {a}) {
+          for (int j = 0; j < n; ++j) {
+            if (j == i) continue;
+            const auto& pr = pairs.at({i, j});
+            if (pr.match.status == draco::msgs::MatchStatus::kMatched)
+              others.maps[{robots[i].id, robots[j].id}] = ToPg(pr.match.T_a_b);
+          }
+        }
+        for (int i = 0; i < n; ++i) {
+          for (int j = 0; j < n; ++j) {
+            if (i == a || j == i) continue;
+            const auto& pr = pairs.at({i, j});
+            if (pr.match.status != draco::msgs::MatchStatus::kMatched || pr.oracle_used) continue;
+            if (others.maps.count({robots[j].id, robots[i].id})) continue;
+            others.maps[{robots[i].id, robots[j].id}] = ToPg(pr.match.T_a_b);
+          }
+        }
+      }
       for (int b = 0; b < n; ++b) {
         if (b == a) continue;
         const auto& pr = pairs.at({a, b});
         const bool have = pr.match.status == draco::msgs::MatchStatus::kMatched;
+        team::Pose2 chained;
+        const bool via = shared_transforms && !have && !oracle &&
+                         team::MapGuess(others, A.id, robots[b].id, &chained);
         std::string how = pr.oracle_used
                               ? "oracle"
                               : (have ? (pr.correct ? "matching" : "matching(wrong)")
@@ -276,7 +305,12 @@ int main(int argc, char** argv) {
         // The oracle also places teammates with no true shared object (no scans requested).
         const bool oracle_guess = oracle && !have;
         if (oracle_guess) how = "oracle(no-scans)";
-        T_own[b] = have ? pr.match.T_a_b : (oracle_guess ? pr.T_true : Pose2{});
+        if (via) how = "shared-transforms";
+        T_own[b] = have
+                       ? pr.match.T_a_b
+                       : (oracle_guess
+                              ? pr.T_true
+                              : (via ? Pose2{chained.x_m, chained.y_m, chained.yaw_rad} : Pose2{}));
         placed_by += (placed_by.empty() ? "" : " ") + robots[b].name + ":" + how;
         problem.maps[{A.id, robots[b].id}] = ToPg(T_own[b]);
         cons::UncertainPose m;
@@ -284,7 +318,7 @@ int main(int argc, char** argv) {
         m.covariance = Eigen::Vector3d(map_sigma_m * map_sigma_m, map_sigma_m * map_sigma_m,
                                        std::pow(map_sigma_deg * kDeg, 2))
                            .asDiagonal();
-        if (have || oracle_guess) poses.SetMapTransform(A.id, robots[b].id, m);
+        if (have || oracle_guess || via) poses.SetMapTransform(A.id, robots[b].id, m);
         for (const auto& r : pr.registrations) {
           if (!r.valid || r.overlap < threshold - 1e-9) continue;
           auto loop = r.loop;

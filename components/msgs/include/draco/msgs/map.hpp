@@ -24,7 +24,7 @@ struct LandmarkEstimate {
 struct KeyframeTrajectory {
   double time_s = 0.0;  // time of the newest keyframe
   std::vector<KeyframePose> keyframes;
-  int loops_accepted = 0;  // intra-robot loop closures in the graph so far
+  int loops_accepted = 0;                   // intra-robot loop closures in the graph so far
   std::vector<LandmarkEstimate> landmarks;  // empty when the local SLAM has none
 };
 
