@@ -642,6 +642,44 @@ TEST(ObjectMapperStage, PublishesAtMostEveryPeriodWhenChanged) {
   EXPECT_LE(stage.version(), 100u);  // changes only while keyframes came
 }
 
+TEST(ObjectMapperStage, AppendsTheLocalSlamLandmarksSeenOften) {
+  const auto world = World(7);
+  const RobotData r = MakeRobot(kA, world, Lawnmower({10.0, 40.0}, true), {}, 1);
+  ObjectMapperStageOptions o;
+  o.robot_id = kA;
+  o.object_map_period_s = 1.0;
+  ObjectMapperStage stage(o);
+  msgs::KeyframeTrajectory traj;
+  for (std::size_t k = 0; k < 10 && k < r.keyframes.size(); ++k) {
+    stage.OnKeyframe(r.keyframes[k]);
+    traj.keyframes.push_back(
+        {static_cast<int>(k), r.keyframes[k].time_s, r.keyframes[k].T_odom_body});
+  }
+  // Landmark 4 seen from keyframes 1, 3, 5 (most), 9 from 2, 7 (enough), 12 once (too few),
+  // 13 only from keyframe 20 (not mapped yet).
+  traj.landmarks = {{9, {3.0, -1.0}, 0.4, {2, 7}},
+                    {4, {12.0, 5.0}, 0.8, {1, 3, 5}},
+                    {12, {1.0, 1.0}, 0.5, {6}},
+                    {13, {2.0, 2.0}, 0.5, {20, 21}}};
+  stage.OnTrajectory(traj);
+  const auto out = stage.Step(20.0, nullptr);
+  ASSERT_TRUE(out.has_object_map);
+  std::vector<const msgs::Object*> landmarks;
+  for (const auto& ob : out.object_map.objects) {
+    EXPECT_EQ(ob.landmark, (ob.id & msgs::kLandmarkIdBit) != 0) << ob.id;
+    if (ob.landmark) landmarks.push_back(&ob);
+  }
+  ASSERT_EQ(landmarks.size(), 2u);
+  EXPECT_EQ(landmarks[0]->id, msgs::kLandmarkIdBit + 4);  // most seen first
+  EXPECT_EQ(landmarks[0]->keyframes, (std::vector<int>{1, 3, 5}));
+  EXPECT_DOUBLE_EQ(landmarks[0]->length_m, 1.6);
+  EXPECT_DOUBLE_EQ(landmarks[0]->center.x_m, 12.0);
+  EXPECT_EQ(landmarks[1]->id, msgs::kLandmarkIdBit + 9);
+  EXPECT_EQ(out.object_map.objects.size() - 2, static_cast<std::size_t>(std::count_if(
+      out.object_map.objects.begin(), out.object_map.objects.end(),
+      [](const auto& ob) { return !ob.landmark; })));
+}
+
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   GraphMatcherStageOptions o;
   o.robot_id = kA;
