@@ -121,6 +121,17 @@ TEST(TeamPgo, LocalStepOnlyHoldsOwnAndTouchedTeammatePoses) {
   }
 }
 
+// Rigid placement: the teammate's relative poses are its own.
+void ExpectRigid(const TeamEstimate& e, const synthetic::Mission& m, int r) {
+  const auto& traj = e.trajectories.at(r);
+  const auto& local = m.problem.robots.at(r).poses;
+  const Pose2 a = pose_graph::Between(traj[0], traj[100]);
+  const Pose2 b = pose_graph::Between(local[0], local[100]);
+  EXPECT_NEAR(a.x_m, b.x_m, 1e-9) << "robot " << r;
+  EXPECT_NEAR(a.y_m, b.y_m, 1e-9) << "robot " << r;
+  EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-9) << "robot " << r;
+}
+
 TEST(TeamPgo, FirstLoopAnchorPlacesTeammateRigidly) {
   const auto m = MakeMission({});
   TwoStepOptions o;
@@ -128,13 +139,7 @@ TEST(TeamPgo, FirstLoopAnchorPlacesTeammateRigidly) {
   const TeamEstimate two = TwoStepPgo(m.problem, 0, o);
   EXPECT_TRUE(two.global.empty());
   for (int r = 1; r < 3; ++r) {
-    const auto& traj = two.trajectories.at(r);
-    const auto& local = m.problem.robots.at(r).poses;
-    // Rigid: relative poses are the teammate's own.
-    const Pose2 a = pose_graph::Between(traj[0], traj[100]);
-    const Pose2 b = pose_graph::Between(local[0], local[100]);
-    EXPECT_NEAR(a.x_m, b.x_m, 1e-9);
-    EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-9);
+    ExpectRigid(two, m, r);
     std::printf("robot %d: first-loop anchor %.3f m, guess %.3f m\n", r, TeammateAte(two, m, r),
                 GuessAte(m, 0, r));
     EXPECT_LT(TeammateAte(two, m, r), GuessAte(m, 0, r));
@@ -150,12 +155,7 @@ TEST(TeamPgo, RigidAnchorPlacesTeammateByAllItsLoops) {
   const TeamEstimate one = TwoStepPgo(m.problem, 0, first);
   EXPECT_TRUE(two.global.empty());
   for (int r = 1; r < 3; ++r) {
-    const auto& traj = two.trajectories.at(r);
-    const auto& local = m.problem.robots.at(r).poses;
-    const Pose2 a = pose_graph::Between(traj[0], traj[100]);
-    const Pose2 b = pose_graph::Between(local[0], local[100]);
-    EXPECT_NEAR(a.x_m, b.x_m, 1e-9);
-    EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-9);
+    ExpectRigid(two, m, r);
     // Placed by the loops, not the guess. (On this synthetic mission the teammate's chain
     // drifts, so a fit over all its touched poses is not better than its first loop: 0.99 /
     // 0.65 m against 0.91 / 0.58 m.)
