@@ -678,6 +678,75 @@ TEST(ObjectMapperStage, AppendsTheLocalSlamLandmarksSeenOften) {
   EXPECT_GT(out.object_map.objects.size(), landmarks.size());  // the clusters are still there
 }
 
+TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
+  // Own robot 0 has an accepted loop with robot 1 and no match with robot 2; robot 1 shares
+  // its loop-verified T_1_2. Robot 2 is placed at T_0_1 * T_1_2 and counts as verified.
+  OptimizerStageOptions o;
+  o.robot_id = 0;
+  o.optimize_period_s = 0.0;
+  OptimizerStage stage(o);
+  msgs::KeyframeTrajectory traj;
+  for (int k = 0; k < 5; ++k) {
+    msgs::Keyframe kf;
+    kf.index = k;
+    kf.time_s = k;
+    kf.T_odom_body = {2.0 * k, 0.0, 0.0};
+    kf.points_body = {{1.0, 0.0}};
+    stage.OnKeyframe(kf);
+    traj.keyframes.push_back({k, double(k), kf.T_odom_body});
+  }
+  stage.OnTrajectory(traj);
+  for (int robot : {1, 2}) {
+    msgs::KeyframePoses p;
+    p.header.robot_id = robot;
+    p.header.incarnation = 1;
+    p.full = true;
+    for (int k = 0; k < 5; ++k) p.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
+    stage.OnKeyframePoses(p);
+  }
+  const Pose2 T_0_1{5.0, 1.0, 0.3}, T_1_2{-3.0, 4.0, -0.7};
+  msgs::MapMatches matches;
+  auto& g = matches.guesses[1];
+  g.robot_id = 1;
+  g.matched = true;
+  g.match.T_a_b = T_0_1;
+  g.match_count = 1;
+  msgs::InterRobotLoop loop;
+  loop.id = 1;
+  loop.own_robot = 0;
+  loop.own_keyframe = 2;
+  loop.teammate_robot = 1;
+  loop.teammate_keyframe = 2;
+  loop.T_ownkf_teammatekf =
+      reg::Between(traj.keyframes[2].T_map_kf, reg::Compose(T_0_1, Pose2{0.0, 4.0, 0.5}));
+  loop.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+  loop.flags = msgs::kLoopAccepted;
+  msgs::TeamStepStats st;
+  stage.Step(10.0, {loop}, matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(2), 0u);  // nothing places robot 2 yet
+  ASSERT_EQ(stage.SharedTransforms().size(), 1u);         // own verified estimate of robot 1
+  EXPECT_EQ(stage.SharedTransforms()[0].robot_id, 1);
+  msgs::TeammateTransforms shared;
+  shared.header.robot_id = 1;
+  shared.header.incarnation = 1;
+  shared.transforms = {{2, T_1_2}, {0, {}}};  // an entry about ourselves is ignored
+  stage.OnTeammateTransforms(shared);
+  stage.Step(20.0, {loop}, matches, &st);
+  ASSERT_EQ(stage.estimate().trajectories.count(2), 1u);
+  const auto& t2 = stage.estimate().trajectories.at(2);
+  ASSERT_EQ(t2.size(), 5u);
+  const Pose2 T_0_1_est = stage.estimate().T_own_teammate.at(1);
+  const Pose2 want = reg::Compose(reg::Compose(T_0_1_est, T_1_2), Pose2{0.0, 6.0, 0.5});
+  EXPECT_NEAR(t2[3].T_map_kf.x_m, want.x_m, 1e-6);
+  EXPECT_NEAR(t2[3].T_map_kf.y_m, want.y_m, 1e-6);
+  // Robot 2 is not shared on (only loop-verified estimates are).
+  for (const auto& e : stage.SharedTransforms()) EXPECT_NE(e.robot_id, 2);
+  // Robot 1 restarts: what it shared is forgotten, robot 2 is no longer placed.
+  stage.Forget(1);
+  stage.Step(30.0, {}, msgs::MapMatches{}, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(2), 0u);
+}
+
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   GraphMatcherStageOptions o;
   o.robot_id = kA;

@@ -94,6 +94,7 @@ msgs::Heartbeat MakeHeartbeat() {
   h.header = Header();
   h.num_keyframes = 345;
   h.acks = {{0, 77, 12}, {1, 0xffffffff, 0}};
+  h.transforms = {{2, {12.5, -40.25, 2.5}}};
   return h;
 }
 
@@ -209,7 +210,10 @@ TEST(FleetCodec, HeartbeatRoundTrip) {
   EXPECT_EQ(d.acks[1].incarnation, 0xffffffffu);
   EXPECT_EQ(d.acks[0].object_map_version, 12u);
   EXPECT_EQ(d.acks[0].incarnation, 77u);
-  EXPECT_LE(bytes.size(), 24u);
+  ASSERT_EQ(d.transforms.size(), 1u);
+  EXPECT_EQ(d.transforms[0].robot_id, 2);
+  ExpectPose(h.transforms[0].T_sender_robot, d.transforms[0].T_sender_robot);
+  EXPECT_LE(bytes.size(), 32u);
 }
 
 TEST(FleetCodec, ObjectMapRoundTrip) {

@@ -90,6 +90,7 @@ components:
   // Block policy is not declared by Scale (queue 16, drop oldest): pace the run so the
   // consumer keeps up, then compare.
   std::vector<std::string> files;
+  std::uint64_t dropped = 0;
   for (const char* executor : {"deterministic", "threaded"}) {
     auto g = LoadGraphString(yaml, "g.yaml");
     const auto dir = std::filesystem::temp_directory_path() /
@@ -98,16 +99,34 @@ components:
     RunOptions o;
     o.output_dir = dir.string();
     o.use_graph_rate = false;
-    o.rate = 10.0;  // 1 s of mission in 0.1 s
+    o.rate = 4.0;  // 1 s of mission in 0.25 s
     const auto r =
         std::string(executor) == "threaded" ? RunThreaded(*g, o) : RunDeterministic(*g, o);
     ASSERT_TRUE(r.ok) << r.error;
+    dropped += StatsOf(r, "s").inputs[0].dropped + StatsOf(r, "sink").inputs[0].dropped;
     std::ifstream f(dir / "values.csv");
     std::stringstream ss;
     ss << f.rdbuf();
     files.push_back(ss.str());
   }
-  EXPECT_EQ(files[0], files[1]);
+  if (dropped == 0) {
+    EXPECT_EQ(files[0], files[1]);
+    return;
+  }
+  // A machine too loaded to keep pace (CI neighbours) made a queue drop: then the threaded
+  // output is the deterministic one minus exactly the counted drops, in order.
+  std::vector<std::string> a, b;
+  for (auto [text, lines] : {std::pair{&files[0], &a}, std::pair{&files[1], &b}}) {
+    std::stringstream in(*text);
+    for (std::string line; std::getline(in, line);) lines->push_back(line);
+  }
+  EXPECT_EQ(a.size() - b.size(), dropped);
+  std::size_t i = 0;
+  for (const auto& line : b) {
+    while (i < a.size() && a[i] != line) ++i;
+    ASSERT_LT(i, a.size()) << "threaded line not in the deterministic output: " << line;
+    ++i;
+  }
 }
 
 TEST(Threaded, StopRequestShutsDownCleanlyAndCallsStop) {

@@ -811,8 +811,38 @@ void OptimizerStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
   graph_changed_[poses.header.robot_id] = true;
 }
 
+void OptimizerStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
+  const int sender = t.header.robot_id;
+  if (sender == options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, t.header, [this](int r) { Forget(r); })) return;
+  std::vector<msgs::Heartbeat::Transform> kept;
+  for (const auto& e : t.transforms) {
+    if (e.robot_id != sender && Finite(e.T_sender_robot)) kept.push_back(e);
+  }
+  auto& held = shared_[sender];
+  const auto same = [](const auto& a, const auto& b) {
+    return a.robot_id == b.robot_id && a.T_sender_robot.x_m == b.T_sender_robot.x_m &&
+           a.T_sender_robot.y_m == b.T_sender_robot.y_m &&
+           a.T_sender_robot.yaw_rad == b.T_sender_robot.yaw_rad;
+  };
+  if (std::equal(held.begin(), held.end(), kept.begin(), kept.end(), same)) return;
+  for (const auto& e : held) graph_changed_[e.robot_id] = true;
+  for (const auto& e : kept) graph_changed_[e.robot_id] = true;
+  held = std::move(kept);
+}
+
+std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const {
+  std::vector<msgs::Heartbeat::Transform> out;
+  for (const int robot : loop_verified_) {
+    const auto it = estimate_.T_own_teammate.find(robot);
+    if (it != estimate_.T_own_teammate.end()) out.push_back({robot, it->second});
+  }
+  return out;
+}
+
 void OptimizerStage::Forget(int robot) {
   if (robot == options_.robot_id) return;
+  shared_.erase(robot);
   roster_.Erase(robot);
   poses_.Forget(robot);
   graph_changed_.erase(robot);
@@ -847,10 +877,35 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   }
   if (accepted != accepted_ids_) accepted_changed_ = true;
   accepted_ids_ = std::move(accepted);
-  const auto guess = [&](int robot) -> std::optional<Pose2> {
+  std::set<int> loop_verified;
+  for (const auto& l : candidates) {
+    if ((l.flags & msgs::kLoopAccepted) && l.teammate_robot != own_id)
+      loop_verified.insert(l.teammate_robot);
+  }
+  const auto direct = [&](int robot) -> std::optional<Pose2> {
     const Pose2* g = msgs::GuessOf(matches, robot);
     return g ? std::optional<Pose2>(*g) : std::nullopt;
   };
+  // Robots without accepted loops of their own, placed through a teammate that has them and
+  // shared its estimate (the lowest sender id wins).
+  std::map<int, Pose2> chained;
+  for (const auto& [sender, entries] : shared_) {
+    if (!loop_verified.count(sender)) continue;
+    const auto it = estimate_.T_own_teammate.find(sender);
+    const auto g =
+        it != estimate_.T_own_teammate.end() ? std::optional<Pose2>(it->second) : direct(sender);
+    if (!g) continue;
+    for (const auto& e : entries) {
+      if (e.robot_id == own_id || loop_verified.count(e.robot_id) || chained.count(e.robot_id))
+        continue;
+      chained[e.robot_id] = reg::Compose(*g, e.T_sender_robot);
+    }
+  }
+  const auto guess = [&](int robot) -> std::optional<Pose2> {
+    const auto it = chained.find(robot);
+    return it != chained.end() ? std::optional<Pose2>(it->second) : direct(robot);
+  };
+  loop_verified_ = loop_verified;
 
   bool graphs_changed = own_graph_changed_;
   for (const auto& [robot, changed] : graph_changed_) graphs_changed = graphs_changed || changed;
@@ -952,6 +1007,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     // map-to-map guess alone (object-graph matching) can be wrong where structures repeat.
     std::set<int> verified;
     for (const auto& l : problem.loops) verified.insert(l.teammate_robot);
+    for (const auto& [robot, T] : chained) verified.insert(robot);
     for (auto it = placed.begin(); it != placed.end();) {
       it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
     }

@@ -51,6 +51,7 @@ enum Rank : int {
   kRequest,
   kReply,
   kLoops,
+  kTransforms,
 };
 
 class Absorber {
@@ -470,6 +471,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
                                              FromLink("teammates' keyframe poses (link)"));
     events_ =
         spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    transforms_in_ = spec.Input<msgs::TeammateTransforms>(
+        "teammate_map_transforms", FromLink("teammates' verified map-to-map estimates (link)"));
+    transforms_out_ = spec.Output<msgs::MapTransforms>(
+        "map_transforms", "own verified map-to-map estimates to share, when they change");
     RobotIdParam(spec, &o_.robot_id);
     spec.Param("team_names", &team_names_,
                {.doc = "robot names by id (output file names): alpha, bravo, ..."});
@@ -507,11 +512,24 @@ class TwoStepOptimizerComponent final : public graph::Component {
       if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
     });
     in_.Add(poses_, kPoses, [this](const auto& p) { stage_->OnKeyframePoses(p); });
+    in_.Add(transforms_in_, kTransforms,
+            [this](const auto& t) { stage_->OnTeammateTransforms(t); });
     for (const auto& l : loops_.TakeAll()) {
       in_.ApplyBefore(l.stamp);
       msgs::TeamStepStats st = l->matches.step;
       stage_->Step(l.stamp.Seconds(), l->candidates, l->matches, &st);
       steps_.push_back(st);
+      auto shared = stage_->SharedTransforms();
+      const auto same = [](const auto& a, const auto& b) {
+        return a.robot_id == b.robot_id && a.T_sender_robot.x_m == b.T_sender_robot.x_m &&
+               a.T_sender_robot.y_m == b.T_sender_robot.y_m &&
+               a.T_sender_robot.yaw_rad == b.T_sender_robot.yaw_rad;
+      };
+      if (!std::equal(shared.begin(), shared.end(), shared_.begin(), shared_.end(), same)) {
+        shared_ = shared;
+        transforms_out_.PublishAt(l.stamp,
+                                  msgs::MapTransforms{l.stamp.Seconds(), std::move(shared)});
+      }
     }
     return Status::Ok();
   }
@@ -561,6 +579,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;
   graph::In<msgs::KeyframeTrajectory> trajectory_;
+  graph::In<msgs::TeammateTransforms> transforms_in_;
+  graph::Out<msgs::MapTransforms> transforms_out_;
+  std::vector<msgs::Heartbeat::Transform> shared_;  // last published
   graph::In<msgs::KeyframePoses> poses_;
   graph::In<msgs::TeammateEvent> events_;
 };

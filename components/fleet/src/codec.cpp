@@ -319,7 +319,8 @@ PackedCovariance Pack(const msgs::Covariance3& c) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
-// Heartbeat: header, num_keyframes, acks (robot id, incarnation, object-map version).
+// Heartbeat: header, num_keyframes, acks (robot id, incarnation, object-map version),
+// transforms (robot id, T_sender_robot).
 
 std::vector<std::uint8_t> Encode(const msgs::Heartbeat& m, const CodecOptions& o) {
   Encoder e(FleetKind::kHeartbeat, o);
@@ -330,6 +331,11 @@ std::vector<std::uint8_t> Encode(const msgs::Heartbeat& m, const CodecOptions& o
     e.Robot(a.robot_id, "ack robot_id");
     e.w.Put(a.incarnation, 32);
     e.w.PutExpGolomb(a.object_map_version, kVersionOrder);
+  }
+  e.Count(m.transforms.size(), e.b_.max_acks, "transforms");
+  for (const auto& t : m.transforms) {
+    e.Robot(t.robot_id, "transform robot_id");
+    e.Pose(t.T_sender_robot, "transform");
   }
   return e.Finish();
 }
@@ -351,7 +357,15 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::Heartbeat* m,
       a.incarnation = static_cast<std::uint32_t>(inc);
       out.acks.push_back(a);
     }
-    d.End();
+    if (out.acks.size() == n && d.Count(b.max_acks, &n, "transforms")) {
+      for (std::size_t i = 0; i < n; ++i) {
+        msgs::Heartbeat::Transform t;
+        if (!d.Robot(&t.robot_id, "transform robot_id") || !d.Pose(&t.T_sender_robot, "transform"))
+          break;
+        out.transforms.push_back(t);
+      }
+      d.End();
+    }
   }
   const DecodeResult res = d.Result();
   if (res) *m = std::move(out);

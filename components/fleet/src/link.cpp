@@ -115,6 +115,7 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s)
   // The newest own map and poses are kept, so a teammate that joins or restarts after they
   // stopped changing (e.g. our recording ended) still gets them.
   msgs::FleetOutgoing out = given;
+  if (out.has_transforms) transforms_ = out.transforms;  // sent with every heartbeat
   if (out.has_poses) {
     for (auto& p : out.poses) p.num_points = std::min(p.num_points, options_.bounds.max_points);
     last_poses_ = out.poses;
@@ -395,6 +396,7 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
           t->acked_own_version = a.object_map_version;
         }
       }
+      if (!m.transforms.empty()) in->transforms.push_back({m.header, std::move(m.transforms)});
       return;
     }
     case FleetKind::kObjectMap: {
@@ -463,6 +465,7 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
     for (const auto& [id, t] : teammates_) {
       if (t.known && !t.left) hb.acks.push_back({id, t.incarnation, t.held_map_version});
     }
+    hb.transforms = transforms_;
     try {
       Queue(FleetKind::kHeartbeat, -1, Encode(hb, options_.codec), now_s);
     } catch (const std::exception& e) {

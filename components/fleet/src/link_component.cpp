@@ -37,6 +37,8 @@ class LinkComponent final : public graph::Component {
     requests_ = spec.Input<msgs::ScanRequest>("scan_requests", send("scan requests to send"));
     replies_ = spec.Input<msgs::ScanReply>("scan_replies", send("scans to send"));
     loops_ = spec.Input<msgs::LoopClosureMessage>("loop_closures", send("accepted loops to send"));
+    transforms_ = spec.Input<msgs::MapTransforms>(
+        "map_transforms", send("own verified map-to-map estimates (sent with heartbeats)"));
     events_ = spec.Output<msgs::TeammateEvent>("teammate_events",
                                                "a teammate joined, restarted, went silent or left");
     maps_out_ = spec.Output<msgs::TeammateObjectMap>(
@@ -48,6 +50,8 @@ class LinkComponent final : public graph::Component {
     replies_out_ = spec.Output<msgs::ScanReply>("teammate_scan_replies", "scans for our requests");
     loops_out_ = spec.Output<msgs::LoopClosureMessage>("teammate_loop_closures",
                                                        "loops teammates accepted with us");
+    transforms_out_ = spec.Output<msgs::TeammateTransforms>(
+        "teammate_map_transforms", "a teammate's verified map-to-map estimates");
     spec.Timer("tick", 0.5, "queue, transmit, receive and deliver every 0.5 s of mission time");
     spec.Param("robot_id", &o_.robot_id, {.doc = "own robot id", .min = 0, .max = 63});
     spec.Param("team", &team_,
@@ -125,6 +129,10 @@ class LinkComponent final : public graph::Component {
     for (const auto& m : requests_.TakeAll()) any = true, merged.requests.push_back(*m);
     for (const auto& m : replies_.TakeAll()) any = true, merged.replies.push_back(*m);
     for (const auto& m : loops_.TakeAll()) any = true, merged.loops.push_back(*m);
+    for (const auto& m : transforms_.TakeAll()) {
+      any = merged.has_transforms = true;
+      merged.transforms = m->transforms;
+    }
     const double now_s = ctx.Now().Seconds();
     merged.time_s = now_s;
     last_s_ = now_s;
@@ -136,6 +144,7 @@ class LinkComponent final : public graph::Component {
     for (auto& m : in.requests) requests_out_.PublishAt(ctx.Now(), std::move(m));
     for (auto& m : in.replies) replies_out_.PublishAt(ctx.Now(), std::move(m));
     for (auto& m : in.loops) loops_out_.PublishAt(ctx.Now(), std::move(m));
+    for (auto& m : in.transforms) transforms_out_.PublishAt(ctx.Now(), std::move(m));
     return Status::Ok();
   }
 
@@ -172,12 +181,14 @@ class LinkComponent final : public graph::Component {
   graph::In<msgs::ScanRequest> requests_;
   graph::In<msgs::ScanReply> replies_;
   graph::In<msgs::LoopClosureMessage> loops_;
+  graph::In<msgs::MapTransforms> transforms_;
   graph::Out<msgs::TeammateEvent> events_;
   graph::Out<msgs::TeammateObjectMap> maps_out_;
   graph::Out<msgs::KeyframePoses> poses_out_;
   graph::Out<msgs::ScanRequest> requests_out_;
   graph::Out<msgs::ScanReply> replies_out_;
   graph::Out<msgs::LoopClosureMessage> loops_out_;
+  graph::Out<msgs::TeammateTransforms> transforms_out_;
 };
 
 }  // namespace

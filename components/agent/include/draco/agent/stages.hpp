@@ -343,11 +343,17 @@ class OptimizerStage {
   void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
   void OnKeyframePoses(const msgs::KeyframePoses& poses);
+  // A teammate's loop-verified map-to-map estimates. A robot the own matching did not place
+  // (or placed without accepted loops) is placed through a teammate s with accepted loops:
+  // T_own_robot = T_own_s * T_s_robot, and counts as verified.
+  void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);
   void Forget(int robot);
   // candidates: the filter's set after this step (accepted ones flagged).
   void Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
             const msgs::MapMatches& matches, msgs::TeamStepStats* stats);
   const TeamEstimate& estimate() const { return estimate_; }
+  // Own map-to-map estimates of the teammates with accepted loops, to share (ascending id).
+  std::vector<msgs::Heartbeat::Transform> SharedTransforms() const;
   const TeammatePoses& teammate_poses() const { return poses_; }
 
  private:
@@ -364,6 +370,8 @@ class OptimizerStage {
   double last_optimize_s_;
   bool optimized_once_ = false;
   TeamEstimate estimate_;
+  std::map<int, std::vector<msgs::Heartbeat::Transform>> shared_;  // by sender
+  std::set<int> loop_verified_;                                    // after the last step
 };
 
 }  // namespace draco::agent

@@ -143,6 +143,7 @@ class LinkEndpoint {
   bool has_last_poses_ = false;
   bool started_ = false;
   int own_keyframes_ = 0;
+  std::vector<msgs::Heartbeat::Transform> transforms_;  // own, sent with each heartbeat
   LinkCounters counters_;
 };
 

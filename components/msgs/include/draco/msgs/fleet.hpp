@@ -61,6 +61,25 @@ struct Heartbeat {
     std::uint32_t object_map_version = 0;  // 0: nothing held
   };
   std::vector<Ack> acks;
+  // The sender's map-to-map estimates that accepted loops verified (T_sender_robot): a
+  // teammate that cannot match robot_id itself places it through the sender.
+  struct Transform {
+    int robot_id = 0;
+    Pose2 T_sender_robot;
+  };
+  std::vector<Transform> transforms;
+};
+
+// Own verified map-to-map estimates to share (team.TwoStepOptimizer -> fleet.Link).
+struct MapTransforms {
+  double time_s = 0.0;
+  std::vector<Heartbeat::Transform> transforms;
+};
+
+// A teammate's shared map-to-map estimates, as received (fleet.Link -> team.TwoStepOptimizer).
+struct TeammateTransforms {
+  FleetHeader header;
+  std::vector<Heartbeat::Transform> transforms;
 };
 
 // Object-map update. version counts the sender's updates (1, 2, ...); base_version is the
@@ -134,6 +153,8 @@ struct FleetOutgoing {
   std::vector<ScanRequest> requests;
   std::vector<ScanReply> replies;
   std::vector<LoopClosureMessage> loops;
+  bool has_transforms = false;
+  std::vector<Heartbeat::Transform> transforms;  // replaces the ones sent so far
 };
 
 // A teammate's object map as the link holds it after applying updates.
@@ -159,9 +180,10 @@ struct FleetIncoming {
   std::vector<ScanRequest> requests;
   std::vector<ScanReply> replies;
   std::vector<LoopClosureMessage> loops;
+  std::vector<TeammateTransforms> transforms;
   bool empty() const {
     return events.empty() && object_maps.empty() && poses.empty() && requests.empty() &&
-           replies.empty() && loops.empty();
+           replies.empty() && loops.empty() && transforms.empty();
   }
 };
 
