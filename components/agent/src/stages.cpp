@@ -820,12 +820,7 @@ void OptimizerStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
     if (e.robot_id != sender && Finite(e.T_sender_robot)) kept.push_back(e);
   }
   auto& held = shared_[sender];
-  const auto same = [](const auto& a, const auto& b) {
-    return a.robot_id == b.robot_id && a.T_sender_robot.x_m == b.T_sender_robot.x_m &&
-           a.T_sender_robot.y_m == b.T_sender_robot.y_m &&
-           a.T_sender_robot.yaw_rad == b.T_sender_robot.yaw_rad;
-  };
-  if (std::equal(held.begin(), held.end(), kept.begin(), kept.end(), same)) return;
+  if (held == kept) return;
   for (const auto& e : held) graph_changed_[e.robot_id] = true;
   for (const auto& e : kept) graph_changed_[e.robot_id] = true;
   held = std::move(kept);

@@ -520,12 +520,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
       stage_->Step(l.stamp.Seconds(), l->candidates, l->matches, &st);
       steps_.push_back(st);
       auto shared = stage_->SharedTransforms();
-      const auto same = [](const auto& a, const auto& b) {
-        return a.robot_id == b.robot_id && a.T_sender_robot.x_m == b.T_sender_robot.x_m &&
-               a.T_sender_robot.y_m == b.T_sender_robot.y_m &&
-               a.T_sender_robot.yaw_rad == b.T_sender_robot.yaw_rad;
-      };
-      if (!std::equal(shared.begin(), shared.end(), shared_.begin(), shared_.end(), same)) {
+      if (shared != shared_) {
         shared_ = shared;
         transforms_out_.PublishAt(l.stamp,
                                   msgs::MapTransforms{l.stamp.Seconds(), std::move(shared)});

@@ -70,6 +70,12 @@ struct Heartbeat {
   std::vector<Transform> transforms;
 };
 
+inline bool operator==(const Heartbeat::Transform& a, const Heartbeat::Transform& b) {
+  return a.robot_id == b.robot_id && a.T_sender_robot.x_m == b.T_sender_robot.x_m &&
+         a.T_sender_robot.y_m == b.T_sender_robot.y_m &&
+         a.T_sender_robot.yaw_rad == b.T_sender_robot.yaw_rad;
+}
+
 // Own verified map-to-map estimates to share (team.TwoStepOptimizer -> fleet.Link).
 struct MapTransforms {
   double time_s = 0.0;
