@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
   team::TwoStepOptions two_step;
   team::FullOptions full_options;
   double loop_sigma_m = 0.0, loop_sigma_deg = 0.0;
-  bool shared_transforms = false;
+  bool shared_transforms = true;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
   app.add_option("--graph", slam.graph_path, "local-SLAM graph YAML");
@@ -177,9 +177,9 @@ int main(int argc, char** argv) {
   app.add_option("--loop-sigma-m", loop_sigma_m,
                  "fixed inter-robot loop sigma (m) in both PGOs (0: the loop's own covariance)");
   app.add_option("--loop-sigma-deg", loop_sigma_deg, "fixed inter-robot loop sigma (deg)");
-  app.add_flag("--shared-transforms", shared_transforms,
+  app.add_flag("--shared-transforms,!--no-shared-transforms", shared_transforms,
                "a teammate the own matching does not place is placed through the teammates' "
-               "map-to-map transforms (as if shared over the link), when they connect it");
+               "matches, as the running team shares its map-to-map estimates (default on)");
   CLI11_PARSE(app, argc, argv);
   ro.min_overlap = 0.0;
   two_step.anchor = global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
