@@ -49,9 +49,11 @@ struct LocalSlamOptions {
 
   bool loop_closure = true;
   int loop_min_index_gap = 8;  // keyframes at least this far apart
-  double loop_max_distance_m = 10.0;
-  double loop_max_yaw_rad = 60.0 * std::numbers::pi / 180.0;
-  int loop_min_points = 50;
+  // Since session 4 (docs/local-slam.md, "Loop candidates"): 20 m, any heading, 20 points
+  // (before: 10 m, 60 deg, 50 points).
+  double loop_max_distance_m = 20.0;
+  double loop_max_yaw_rad = std::numbers::pi;  // any heading difference
+  int loop_min_points = 20;
   int loop_submap_half_width = 2;  // target: the candidate keyframe and this many each side
   int loop_max_candidates = 3;     // nearest candidates registered per keyframe
   double loop_min_overlap = 0.5;
