@@ -272,13 +272,11 @@ int main(int argc, char** argv) {
       team::TeamProblem others;
       if (shared_transforms) {
         // The own matches first, then the teammates' (one transform per robot pair).
-        for (int i : {a}) {
-          for (int j = 0; j < n; ++j) {
-            if (j == i) continue;
-            const auto& pr = pairs.at({i, j});
-            if (pr.match.status == draco::msgs::MatchStatus::kMatched)
-              others.maps[{robots[i].id, robots[j].id}] = ToPg(pr.match.T_a_b);
-          }
+        for (int j = 0; j < n; ++j) {
+          if (j == a) continue;
+          const auto& pr = pairs.at({a, j});
+          if (pr.match.status == draco::msgs::MatchStatus::kMatched)
+            others.maps[{A.id, robots[j].id}] = ToPg(pr.match.T_a_b);
         }
         for (int i = 0; i < n; ++i) {
           for (int j = 0; j < n; ++j) {
