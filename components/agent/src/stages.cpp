@@ -96,13 +96,9 @@ void OwnKeyframes::OnKeyframe(const msgs::Keyframe& keyframe) {
 }
 
 void OwnKeyframes::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
-  const auto same = [](const msgs::LandmarkEstimate& a, const msgs::LandmarkEstimate& b) {
-    return a.id == b.id && a.p_map.x_m == b.p_map.x_m && a.p_map.y_m == b.p_map.y_m &&
-           a.radius_m == b.radius_m && a.keyframes == b.keyframes;
-  };
-  if (!std::equal(landmarks_.begin(), landmarks_.end(), trajectory.landmarks.begin(),
-                  trajectory.landmarks.end(), same)) {
+  if (landmarks_ != trajectory.landmarks) {
     landmarks_ = trajectory.landmarks;
+    ++landmarks_version_;
     ++version_;
   }
   for (const auto& p : trajectory.keyframes) {
@@ -229,12 +225,15 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
         changed = true;
       }
     }
-    if (!own_.landmarks().empty()) changed = true;  // landmarks move with every solve
-    if (changed) {
-      objects_ = mapper_->Objects(options_.robot_id, now_s);
+    // Clusters are re-described only when the mapper changed; landmarks (which move with
+    // every solve of the local SLAM) are appended to them.
+    if (changed) clusters_ = mapper_->Objects(options_.robot_id, now_s);
+    if (changed || own_.landmarks_version() != seen_landmarks_version_) {
+      objects_ = clusters_;
       const int last = mapped_.empty() ? -1 : *mapped_.rbegin();
       objects::AppendLandmarks(own_.landmarks(), last, options_.mapper.landmark_min_sightings,
                                &objects_);
+      seen_landmarks_version_ = own_.landmarks_version();
       ++version_;
     }
     seen_version_ = own_.version();

@@ -68,10 +68,12 @@ class OwnKeyframes {
   std::uint64_t poses_version() const { return poses_version_; }  // a change to publish
   // The local SLAM's landmarks of the newest trajectory.
   const std::vector<msgs::LandmarkEstimate>& landmarks() const { return landmarks_; }
+  std::uint64_t landmarks_version() const { return landmarks_version_; }
 
  private:
   std::map<int, Entry> own_;
   std::vector<msgs::LandmarkEstimate> landmarks_;
+  std::uint64_t landmarks_version_ = 0;
   std::uint64_t version_ = 0;
   std::uint64_t poses_version_ = 0;
 };
@@ -147,6 +149,8 @@ class ObjectMapperStage {
   std::uint64_t seen_version_ = 0;
   std::uint64_t seen_poses_version_ = 0;
   std::uint64_t version_ = 0;
+  msgs::ObjectMap clusters_;  // the mapper's objects, before the landmarks are appended
+  std::uint64_t seen_landmarks_version_ = 0;
   msgs::ObjectMap objects_;
   msgs::ObjectMap last_published_;
   bool published_once_ = false;

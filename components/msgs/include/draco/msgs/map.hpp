@@ -21,6 +21,11 @@ struct LandmarkEstimate {
   std::vector<int> keyframes;  // that saw it, ascending
 };
 
+inline bool operator==(const LandmarkEstimate& a, const LandmarkEstimate& b) {
+  return a.id == b.id && a.p_map.x_m == b.p_map.x_m && a.p_map.y_m == b.p_map.y_m &&
+         a.radius_m == b.radius_m && a.keyframes == b.keyframes;
+}
+
 struct KeyframeTrajectory {
   double time_s = 0.0;  // time of the newest keyframe
   std::vector<KeyframePose> keyframes;
