@@ -74,6 +74,9 @@ int main(int argc, char** argv) {
   app.add_flag("--oracle-matching", oracle,
                "where matching fails, seed registration with the ground-truth transform and "
                "true object pairs (registration measured alone)");
+  bool possible_loops = true;
+  app.add_flag("!--no-possible-loops", possible_loops,
+               "skip the ground-truth seeded registration of every keyframe pair in range");
   app.add_flag("--reuse", reuse, "reuse the keyframes cached in the out folder");
   app.add_option("--jobs", jobs, "robots run in parallel");
   app.add_option("--max-requests", sel.max_requests, "scan requests per exchange");
@@ -387,7 +390,10 @@ int main(int argc, char** argv) {
       }
       std::printf("\n");
     }
-    // Per pair at the default setting.
+    // Per pair at the default setting, and the loops a perfect matcher could have found.
+    int pairs_possible = 0, pairs_possible_found = 0;
+    std::string possible_csv =
+        "own,teammate,pairs_tested,possible,best_overlap,true_positives,detections\n";
     std::printf("\nper pair at w=%d, overlap >= %.2f (true positives / detections):\n",
                 default_window, default_threshold);
     for (std::size_t ia = 0; ia < robots.size(); ++ia) {
@@ -402,10 +408,41 @@ int main(int argc, char** argv) {
           ++det;
           tp += r.tp;
         }
-        std::printf("  %-8s <- %-8s shared objects %3d: %d / %d\n", robots[ia].name.c_str(),
+        std::string possible_text;
+        if (possible_loops) {
+          fe::PairOptions po;
+          po.selection = sel;
+          po.registration = ro;
+          po.tp_m = tp_m;
+          po.tp_deg = tp_deg;
+          const auto p =
+              fe::CountPossibleLoops(robots[ia], robots[ib], po, default_window, default_threshold);
+          char text[160];
+          std::snprintf(text, sizeof(text), "; possible %d of %d keyframe pairs (best %.2f)",
+                        p.possible, p.pairs_tested, p.best_overlap);
+          possible_text = text;
+          if (p.possible > 0) {
+            ++pairs_possible;
+            pairs_possible_found += tp > 0;
+          }
+          char line[160];
+          std::snprintf(line, sizeof(line), "%s,%s,%d,%d,%.4f,%d,%d\n", robots[ia].name.c_str(),
+                        robots[ib].name.c_str(), p.pairs_tested, p.possible, p.best_overlap, tp,
+                        det);
+          possible_csv += line;
+        }
+        std::printf("  %-8s <- %-8s shared objects %3d: %d / %d%s\n", robots[ia].name.c_str(),
                     robots[ib].name.c_str(),
-                    shared_of[{static_cast<int>(ia), static_cast<int>(ib)}], tp, det);
+                    shared_of[{static_cast<int>(ia), static_cast<int>(ib)}], tp, det,
+                    possible_text.c_str());
       }
+    }
+    if (possible_loops) {
+      std::printf(
+          "ordered pairs with a possible loop (ground-truth seeded, w=%d, overlap >= %.2f, "
+          "true positive): %d; with >= 1 true positive found: %d\n",
+          default_window, default_threshold, pairs_possible, pairs_possible_found);
+      draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/possible_loops.csv", possible_csv);
     }
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/matching.csv", match_csv);
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/registrations.csv", reg_csv);

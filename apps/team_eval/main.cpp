@@ -33,6 +33,7 @@
 #include "draco/consistency/filter.hpp"
 #include "draco/consistency/pairwise.hpp"
 #include "draco/eval/trajectory.hpp"
+#include "draco/frontend/outliers.hpp"
 #include "draco/frontend/pipeline.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
@@ -180,7 +181,28 @@ int main(int argc, char** argv) {
   app.add_flag("--shared-transforms,!--no-shared-transforms", shared_transforms,
                "a teammate the own matching does not place is placed through the teammates' "
                "matches, as the running team shares its map-to-map estimates (default on)");
+  fe::OutlierOptions inject;
+  inject.fraction = 0.0;
+  std::string inject_kind = "correlated";
+  app.add_option("--inject", inject.fraction,
+                 "robustness test: add wrong loops to every robot's real candidates, this "
+                 "fraction of the stream (e.g. 0.3, 0.6, 0.9)");
+  app.add_option("--inject-kind", inject_kind,
+                 "random (each loop 2-10 m, +-30 deg off) | correlated (groups sharing one map "
+                 "offset)")
+      ->check(CLI::IsMember({"random", "correlated"}));
+  app.add_option("--inject-group", inject.group_size, "correlated: loops per group");
+  app.add_option("--inject-offset-m", inject.offset_m,
+                 "correlated: offset m (default one pile-bent spacing, 2.4)");
+  app.add_option("--inject-directions", inject.directions,
+                 "correlated: 0 any direction, N one of N evenly spaced (4: +-x, +-y)");
+  app.add_option("--inject-seed", inject.seed, "robustness test: seed");
   CLI11_PARSE(app, argc, argv);
+  inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
+  if (!(inject.fraction >= 0.0 && inject.fraction < 1.0)) {
+    std::cerr << "draco-team-eval: --inject " << inject.fraction << " is outside [0, 1)\n";
+    return 2;
+  }
   ro.min_overlap = 0.0;
   two_step.anchor = global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
                     : global_anchor == "first-loop" ? team::GlobalAnchor::kFirstLoop
@@ -209,6 +231,8 @@ int main(int argc, char** argv) {
     double slam_s = 0.0;
     const auto robots = fe::RunRobots(mission, info, out_dir, slam, &slam_s);
     const int n = static_cast<int>(robots.size());
+    if (n > 16)
+      throw std::runtime_error("at most 16 robots (the mission has " + std::to_string(n) + ")");
 
     // Local graphs, dead reckoning at the keyframes, dense ground truth.
     std::vector<LocalGraph> graphs;
@@ -249,6 +273,7 @@ int main(int argc, char** argv) {
                 window, threshold, tp_m, tp_deg);
 
     double ate[kRows][16] = {};
+    int loop_accepted[2][16] = {}, loop_tp[2][16] = {};
     std::string loops_csv =
         "robot,teammates_placed_by,candidates,candidate_tp,pcm_accepted,pcm_tp,gcm_accepted,"
         "gcm_tp,pcm_exact,gcm_exact\n";
@@ -325,6 +350,15 @@ int main(int argc, char** argv) {
           candidates.push_back(loop);
         }
       }
+      if (inject.fraction > 0.0) {
+        auto o = inject;
+        o.seed = inject.seed * 1000 + static_cast<std::uint64_t>(a);
+        const auto wrong = fe::InjectOutliers(candidates, local[a], o, candidates.size());
+        for (const auto& w : wrong) {
+          is_tp[w.id] = false;
+          candidates.push_back(w);
+        }
+      }
       std::sort(candidates.begin(), candidates.end(), [](const auto& x, const auto& y) {
         return std::tie(x.own_keyframe, x.teammate_robot, x.teammate_keyframe) <
                std::tie(y.own_keyframe, y.teammate_robot, y.teammate_keyframe);
@@ -351,6 +385,10 @@ int main(int argc, char** argv) {
       }
       int cand_tp = 0;
       for (const auto& [id, t] : is_tp) cand_tp += t;
+      for (int m = 0; m < 2; ++m) {
+        loop_accepted[m][a] = static_cast<int>(accepted[m].size());
+        loop_tp[m][a] = tp_acc[m];
+      }
 
       // Trajectories of every row, concatenated: own first, then teammates in order.
       std::vector<std::vector<std::vector<Pose2>>> rows(kRows);  // [row][robot] in own frame
@@ -456,6 +494,21 @@ int main(int argc, char** argv) {
     }
     std::printf("\n\nper segment (RMSE m after the one alignment):\n%s", segment_lines.c_str());
     std::printf("\ninter-robot loops (accepted / true positives):\n%s", loops_csv.c_str());
+    if (inject.fraction > 0.0) {
+      std::printf("injected: %s outliers, %.0f %% of each robot's stream (seed %llu)\n",
+                  inject_kind.c_str(), 100.0 * inject.fraction,
+                  static_cast<unsigned long long>(inject.seed));
+    }
+    for (int m = 0; m < 2; ++m) {
+      std::printf("%s precision (accepted true / accepted):", m == 0 ? "PCM" : "GCM");
+      int acc_all = 0, tp_all = 0;
+      for (int a = 0; a < n; ++a) {
+        std::printf(" %s %d/%d", robots[a].name.c_str(), loop_tp[m][a], loop_accepted[m][a]);
+        acc_all += loop_accepted[m][a];
+        tp_all += loop_tp[m][a];
+      }
+      std::printf("; all %.3f\n", acc_all ? static_cast<double>(tp_all) / acc_all : 1.0);
+    }
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/table3.csv", table_csv);
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/team_loops.csv", loops_csv);
     std::printf("TUM files and table3.csv, team_loops.csv in %s (draco-eval %s reports them)\n",

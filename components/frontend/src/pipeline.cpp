@@ -451,4 +451,32 @@ PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& o
   return out;
 }
 
+PossibleLoops CountPossibleLoops(const Robot& A, const Robot& B, const PairOptions& options,
+                                 int window, double min_overlap) {
+  PossibleLoops out;
+  auto o = options.registration;
+  o.window = window;
+  o.min_overlap = 0.0;
+  const double radius_m = options.selection.candidate_radius_m;
+  for (std::size_t jb = 0; jb < B.kfs.size(); ++jb) {
+    if (!B.has_truth[jb]) continue;
+    if (static_cast<int>(B.kfs[jb].points_kf.size()) < options.selection.min_points) continue;
+    for (std::size_t ka = 0; ka < A.kfs.size(); ++ka) {
+      if (!A.has_truth[ka]) continue;
+      const Pose2 rel_true = reg::Between(A.truth_kf[ka], B.truth_kf[jb]);
+      if (std::hypot(rel_true.x_m, rel_true.y_m) > radius_m) continue;
+      ++out.pairs_tested;
+      const auto r = reg::RegisterScan(A.kfs, static_cast<int>(ka), B.kfs[jb].points_kf, rel_true,
+                                       o, A.id, B.id, B.kfs[jb].index);
+      if (r.status != reg::RegistrationStatus::kAccepted) continue;
+      const Pose2 e = reg::Between(rel_true, r.loop.T_ownkf_teammatekf);
+      if (std::hypot(e.x_m, e.y_m) > options.tp_m || std::abs(e.yaw_rad) / kDeg > options.tp_deg)
+        continue;
+      out.best_overlap = std::max(out.best_overlap, r.loop.overlap);
+      if (r.loop.overlap >= min_overlap) ++out.possible;
+    }
+  }
+  return out;
+}
+
 }  // namespace draco::frontend

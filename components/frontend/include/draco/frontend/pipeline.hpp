@@ -115,6 +115,20 @@ struct PairResult {
 // Matching, selection and registration of teammate B's scans against own robot A.
 PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& options);
 
+// The loops a perfect matcher could have found: every teammate keyframe (>= the selection's
+// min_points) against every own keyframe within the selection's candidate radius of it in the
+// world, registered (window `window`) from the ground-truth relative pose. A pair counts when
+// the registration is accepted at overlap >= min_overlap and lands within tp_m / tp_deg of
+// the truth. This is what "the robots' paths overlap" means for loop closure: without such a
+// pair no front end can close a true loop between them at that threshold.
+struct PossibleLoops {
+  int pairs_tested = 0;       // keyframe pairs within the radius
+  int possible = 0;           // accepted, overlap >= min_overlap, true positive
+  double best_overlap = 0.0;  // over the true-positive registrations at any overlap
+};
+PossibleLoops CountPossibleLoops(const Robot& A, const Robot& B, const PairOptions& options,
+                                 int window, double min_overlap);
+
 // True shared objects: own objects with a teammate object within radius_m in the world.
 int SharedObjects(const Robot& A, const msgs::ObjectMap& a, const Robot& B,
                   const msgs::ObjectMap& b, double radius_m = 2.0);
