@@ -74,6 +74,14 @@ int main(int argc, char** argv) {
   app.add_flag("--oracle-matching", oracle,
                "where matching fails, seed registration with the ground-truth transform and "
                "true object pairs (registration measured alone)");
+  bool chain = true;
+  app.add_flag("!--no-chain", chain,
+               "no scans for a pair that does not match, even when teammates' matches chain "
+               "(T_a_b = T_a_c * T_c_b, as the running team shares its transforms)");
+  double chain_pair_margin_m = -1.0;
+  app.add_option("--chain-pair-margin", chain_pair_margin_m,
+                 "chained transforms: object rectangles grown by this margin m pair when they meet "
+                 "(default 1)");
   bool possible_loops = true;
   app.add_flag("!--no-possible-loops", possible_loops,
                "skip the ground-truth seeded registration of every keyframe pair in range");
@@ -226,20 +234,44 @@ int main(int argc, char** argv) {
     std::map<std::pair<int, int>, int> shared_of;
     double reg_time_s = 0.0;
     int reg_count = 0;
+    fe::PairOptions po;
+    po.selection = sel;
+    po.registration = ro;
+    po.oracle = oracle;
+    po.matcher = matcher;
+    po.coverage = over_time.coverage;
+    po.tp_m = tp_m;
+    po.tp_deg = tp_deg;
+    if (chain_pair_margin_m > 0) po.chain_pair_margin_m = chain_pair_margin_m;
+    std::map<std::pair<std::size_t, std::size_t>, fe::PairResult> direct;
+    for (std::size_t ia = 0; ia < robots.size(); ++ia) {
+      for (std::size_t ib = 0; ib < robots.size(); ++ib) {
+        if (ia != ib) direct[{ia, ib}] = fe::MatchAndRegister(robots[ia], robots[ib], po);
+      }
+    }
     for (std::size_t ia = 0; ia < robots.size(); ++ia) {
       for (std::size_t ib = 0; ib < robots.size(); ++ib) {
         if (ia == ib) continue;
         const fe::Robot& A = robots[ia];
         const fe::Robot& B = robots[ib];
-        fe::PairOptions po;
-        po.selection = sel;
-        po.registration = ro;
-        po.oracle = oracle;
-        po.matcher = matcher;
-        po.coverage = over_time.coverage;
-        po.tp_m = tp_m;
-        po.tp_deg = tp_deg;
-        const auto pr = fe::MatchAndRegister(A, B, po);
+        fe::PairResult pr = direct.at({ia, ib});
+        bool chained = false;
+        if (chain && !pr.matched && !pr.oracle_used) {
+          // The transform a teammate c shares: T_a_b = T_a_c * T_c_b, both from matching.
+          for (std::size_t ic = 0; ic < robots.size() && !chained; ++ic) {
+            if (ic == ia || ic == ib) continue;
+            const auto& ac = direct.at({ia, ic});
+            const auto& cb = direct.at({ic, ib});
+            if (!ac.matched || !cb.matched) continue;
+            pr = fe::RegisterWithTransform(A, B, reg::Compose(ac.match.T_a_b, cb.match.T_a_b), po);
+            chained = true;
+            std::printf(
+                "%s <- %s: no match; chained through %s (%.2f m, %.2f deg off the truth), "
+                "%zu object pairs, %zu requests\n",
+                A.name.c_str(), B.name.c_str(), robots[ic].name.c_str(), pr.err_m, pr.err_deg,
+                pr.match.pairs.size(), pr.requests);
+          }
+        }
         const int shared = pr.shared_objects;
         shared_of[{static_cast<int>(ia), static_cast<int>(ib)}] = shared;
         if (shared >= 5) {
@@ -255,16 +287,17 @@ int main(int argc, char** argv) {
                           r.source_points, r.valid, r.overlap, r.err_m, r.err_deg, r.tp, r.oracle});
         }
         const auto& match = pr.match;
-        const bool matched = pr.matched, correct = pr.correct, oracle_used = pr.oracle_used;
+        const bool matched = pr.matched || chained, correct = pr.correct,
+                   oracle_used = pr.oracle_used;
         const double err_m = pr.err_m, err_deg = pr.err_deg;
         const std::size_t num_requests = pr.requests;
         char line[256];
-        std::snprintf(line, sizeof(line), "%s,%s,%zu,%zu,%d,%s,%d,%.3f,%.3f,%.3f,%d,%zu,%d,%d\n",
-                      A.name.c_str(), B.name.c_str(), A.objects.objects.size(),
-                      B.objects.objects.size(), shared, draco::msgs::MatchStatusName(match.status),
-                      match.num_inliers, match.confidence, matched ? err_m : -1.0,
-                      matched ? err_deg : -1.0, correct ? 1 : 0, num_requests, registrations,
-                      oracle_used ? 1 : 0);
+        std::snprintf(
+            line, sizeof(line), "%s,%s,%zu,%zu,%d,%s,%d,%.3f,%.3f,%.3f,%d,%zu,%d,%d\n",
+            A.name.c_str(), B.name.c_str(), A.objects.objects.size(), B.objects.objects.size(),
+            shared, chained ? "chained" : draco::msgs::MatchStatusName(match.status),
+            match.num_inliers, match.confidence, matched ? err_m : -1.0, matched ? err_deg : -1.0,
+            correct ? 1 : 0, num_requests, registrations, oracle_used ? 1 : 0);
         match_csv += line;
       }
     }
@@ -410,11 +443,6 @@ int main(int argc, char** argv) {
         }
         std::string possible_text;
         if (possible_loops) {
-          fe::PairOptions po;
-          po.selection = sel;
-          po.registration = ro;
-          po.tp_m = tp_m;
-          po.tp_deg = tp_deg;
           const auto p =
               fe::CountPossibleLoops(robots[ia], robots[ib], po, default_window, default_threshold);
           char text[160];
