@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "draco/consistency/filter.hpp"
+#include "draco/consistency/graph_pose_source.hpp"
 #include "draco/consistency/pairwise.hpp"
 #include "draco/eval/trajectory.hpp"
 #include "draco/frontend/outliers.hpp"
@@ -62,6 +63,7 @@ Pose2 FromPg(const pg::Pose2& p) { return {p.x_m, p.y_m, p.yaw_rad}; }
 struct LocalGraph {
   team::RobotGraph graph;
   std::vector<Eigen::Matrix3d> step_covariance;  // [k]: from k-1 to k ([0] unused)
+  std::vector<cons::RelativeFactor> factors;     // every factor of the g2o, loops included
 };
 
 LocalGraph LoadLocalGraph(const std::string& path, const fe::Robot& r, bool full_graph) {
@@ -83,6 +85,16 @@ LocalGraph LoadLocalGraph(const std::string& path, const fe::Robot& r, bool full
   if (!full_graph) out.graph.factors.clear();  // replaced by the chain below
   std::vector<Eigen::Matrix3d> info(n, Eigen::Matrix3d::Zero());
   for (const auto& e : g2o.edges) {
+    if (e.i < static_cast<pg::PoseId>(n) && e.j < static_cast<pg::PoseId>(n)) {
+      cons::RelativeFactor f;
+      f.from = static_cast<int>(e.i);
+      f.to = static_cast<int>(e.j);
+      f.T_from_to = {e.T_i_j.x_m, e.T_i_j.y_m, e.T_i_j.yaw_rad};
+      for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) f.information(a, b) = e.information[3 * a + b];
+      }
+      out.factors.push_back(f);
+    }
     if (e.j == e.i + 1 && e.j < static_cast<pg::PoseId>(n)) {
       for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) info[e.j](a, b) += e.information[3 * a + b];
@@ -143,7 +155,7 @@ int main(int argc, char** argv) {
   double threshold = ro.min_overlap;
   int window = 3;
   double tp_m = 1.5, tp_deg = 15.0;
-  double map_sigma_m = 1.0, map_sigma_deg = 3.0;
+  double map_sigma_m = 0.5, map_sigma_deg = 1.0;
   int min_clique = 5;
   bool full_local_graph = false;
   std::string global_anchor = "touched";
@@ -181,6 +193,11 @@ int main(int argc, char** argv) {
   app.add_flag("--shared-transforms,!--no-shared-transforms", shared_transforms,
                "a teammate the own matching does not place is placed through the teammates' "
                "matches, as the running team shares its map-to-map estimates (default on)");
+  std::string pose_covariance = "graph";
+  app.add_option("--pose-covariance", pose_covariance,
+                 "relative-pose covariance in PCM / GCM: graph (marginals of each robot's whole "
+                 "pose graph, its loop closures included) | chain (its odometry as an open chain)")
+      ->check(CLI::IsMember({"graph", "chain"}));
   fe::OutlierOptions inject;
   inject.fraction = 0.0;
   std::string inject_kind = "correlated";
@@ -198,6 +215,7 @@ int main(int argc, char** argv) {
                  "correlated: 0 any direction, N one of N evenly spaced (4: +-x, +-y)");
   app.add_option("--inject-seed", inject.seed, "robustness test: seed");
   CLI11_PARSE(app, argc, argv);
+  const bool graph_covariance = pose_covariance == "graph";
   inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
   if (!(inject.fraction >= 0.0 && inject.fraction < 1.0)) {
     std::cerr << "draco-team-eval: --inject " << inject.fraction << " is outside [0, 1)\n";
@@ -284,13 +302,20 @@ int main(int argc, char** argv) {
       std::vector<draco::msgs::InterRobotLoop> candidates;
       std::map<std::uint64_t, bool> is_tp;
       team::TeamProblem problem;
-      cons::ChainPoseSource poses;
+      cons::ChainPoseSource chain_poses;
+      cons::GraphPoseSource graph_poses;
       for (int i = 0; i < n; ++i) {
         problem.robots[robots[i].id] = graphs[i].graph;
+        std::vector<Pose2> kf_poses;
         for (std::size_t k = 0; k < robots[i].kfs.size(); ++k) {
-          poses.AddKeyframe(robots[i].id, robots[i].kfs[k].T_map_kf, graphs[i].step_covariance[k]);
+          chain_poses.AddKeyframe(robots[i].id, robots[i].kfs[k].T_map_kf,
+                                  graphs[i].step_covariance[k]);
+          kf_poses.push_back(robots[i].kfs[k].T_map_kf);
         }
+        if (graph_covariance) graph_poses.SetRobot(robots[i].id, kf_poses, graphs[i].factors);
       }
+      const cons::PoseSource& poses =
+          graph_covariance ? static_cast<const cons::PoseSource&>(graph_poses) : chain_poses;
       std::vector<Pose2> T_own(robots.size());  // T_a_i guess (identity when none)
       std::string placed_by;
       // Teammates' own matches, as the map-to-map transforms they would share.
@@ -315,11 +340,18 @@ int main(int argc, char** argv) {
       }
       for (int b = 0; b < n; ++b) {
         if (b == a) continue;
-        const auto& pr = pairs.at({a, b});
-        const bool have = pr.match.status == draco::msgs::MatchStatus::kMatched;
+        const fe::PairResult* pr_ptr = &pairs.at({a, b});
+        const bool have = pr_ptr->match.status == draco::msgs::MatchStatus::kMatched;
         team::Pose2 chained;
         const bool via = shared_transforms && !have && !oracle &&
                          team::MapGuess(others, A.id, robots[b].id, &chained);
+        fe::PairResult chained_result;
+        if (via) {  // scans around the objects the shared transform overlays
+          chained_result = fe::RegisterWithTransform(
+              A, robots[b], Pose2{chained.x_m, chained.y_m, chained.yaw_rad}, po);
+          pr_ptr = &chained_result;
+        }
+        const fe::PairResult& pr = *pr_ptr;
         std::string how = pr.oracle_used
                               ? "oracle"
                               : (have ? (pr.correct ? "matching" : "matching(wrong)")
@@ -341,7 +373,10 @@ int main(int argc, char** argv) {
         m.covariance = Eigen::Vector3d(map_sigma_m * map_sigma_m, map_sigma_m * map_sigma_m,
                                        std::pow(map_sigma_deg * kDeg, 2))
                            .asDiagonal();
-        if (have || oracle_guess || via) poses.SetMapTransform(A.id, robots[b].id, m);
+        if (have || oracle_guess || via) {
+          chain_poses.SetMapTransform(A.id, robots[b].id, m);
+          graph_poses.SetMapTransform(A.id, robots[b].id, m);
+        }
         for (const auto& r : pr.registrations) {
           if (!r.valid || r.overlap < threshold - 1e-9) continue;
           auto loop = r.loop;
