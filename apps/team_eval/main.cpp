@@ -198,6 +198,11 @@ int main(int argc, char** argv) {
                  "relative-pose covariance in PCM / GCM: graph (marginals of each robot's whole "
                  "pose graph, its loop closures included) | chain (its odometry as an open chain)")
       ->check(CLI::IsMember({"graph", "chain"}));
+  bool map_frame_drift = false;
+  app.add_flag("--map-frame-drift", map_frame_drift,
+               "graph covariance: a keyframe's pose in its map frame carries the drift since the "
+               "first keyframe when compared with the map-to-map guess (default: none, the "
+               "guess was fitted to the drifted maps)");
   fe::OutlierOptions inject;
   inject.fraction = 0.0;
   std::string inject_kind = "correlated";
@@ -303,7 +308,9 @@ int main(int argc, char** argv) {
       std::map<std::uint64_t, bool> is_tp;
       team::TeamProblem problem;
       cons::ChainPoseSource chain_poses;
-      cons::GraphPoseSource graph_poses;
+      cons::GraphPoseSource graph_poses({map_frame_drift
+                                             ? cons::MapFrameCovariance::kFromFirstKeyframe
+                                             : cons::MapFrameCovariance::kNone});
       for (int i = 0; i < n; ++i) {
         problem.robots[robots[i].id] = graphs[i].graph;
         std::vector<Pose2> kf_poses;

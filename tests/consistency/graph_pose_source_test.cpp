@@ -42,7 +42,7 @@ std::vector<cons::RelativeFactor> Chain(const std::vector<Pose2>& poses) {
 
 TEST(GraphPoseSource, OpenChainMatchesChainPoseSource) {
   const auto poses = Square();
-  cons::GraphPoseSource graph;
+  cons::GraphPoseSource graph({cons::MapFrameCovariance::kFromFirstKeyframe});
   graph.SetRobot(2, poses, Chain(poses));
   cons::ChainPoseSource chain;
   for (const auto& p : poses) chain.AddKeyframe(2, p, StepCovariance());
@@ -82,6 +82,20 @@ TEST(GraphPoseSource, LoopClosureTightensFarApartPairs) {
   EXPECT_GT(d->covariance.trace(), 0.5 * c->covariance.trace());
   // The first keyframe is fixed: no uncertainty of its own.
   EXPECT_EQ(closed.InMap(0, 0)->covariance.norm(), 0.0);
+}
+
+TEST(GraphPoseSource, MapFrameCovarianceChoice) {
+  const auto poses = Square();
+  cons::GraphPoseSource drift({cons::MapFrameCovariance::kFromFirstKeyframe});
+  cons::GraphPoseSource none;  // the default: the map as estimated
+  drift.SetRobot(0, poses, Chain(poses));
+  none.SetRobot(0, poses, Chain(poses));
+  EXPECT_GT(drift.InMap(0, 10)->covariance.trace(), 0.1);
+  EXPECT_EQ(none.InMap(0, 10)->covariance.norm(), 0.0);
+  EXPECT_NEAR(none.InMap(0, 10)->pose.x_m, poses[10].x_m, 1e-12);
+  // Relative poses are the same either way.
+  EXPECT_NEAR((drift.Relative(0, 3, 15)->covariance - none.Relative(0, 3, 15)->covariance).norm(),
+              0.0, 1e-12);
 }
 
 TEST(GraphPoseSource, BadGraphsAreErrors) {

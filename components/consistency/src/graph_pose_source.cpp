@@ -118,6 +118,9 @@ std::optional<UncertainPose> GraphPoseSource::InMap(int robot, int keyframe) con
   if (it == robots_.end()) return std::nullopt;
   const Robot& r = it->second;
   if (keyframe < 0 || keyframe >= static_cast<int>(r.poses.size())) return std::nullopt;
+  if (options_.map_frame == MapFrameCovariance::kNone) {
+    return UncertainPose{r.poses[static_cast<std::size_t>(keyframe)], Eigen::Matrix3d::Zero()};
+  }
   return UncertainPose{r.poses[static_cast<std::size_t>(keyframe)], Block(r, keyframe, keyframe)};
 }
 

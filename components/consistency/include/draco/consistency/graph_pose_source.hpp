@@ -29,8 +29,26 @@ struct RelativeFactor {
   Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
 };
 
+// What InMap's covariance (a keyframe's pose in its map frame, used against the map-to-map
+// guesses) holds.
+enum class MapFrameCovariance {
+  // The marginal relative to the first keyframe: the drift of the whole trajectory so far.
+  kFromFirstKeyframe,
+  // None: the map-to-map guess was fitted to the maps as estimated (their objects carry the
+  // keyframes' drift), so a loop is compared with the guess in the drifted map and only the
+  // loop's and the guess's own uncertainties count. Measured (docs/back-end.md): with
+  // injected correlated outliers GCM keeps precision 1.000 where the drift model lets
+  // wrong groups through, and no true loop is lost on the clean streams.
+  kNone,
+};
+
+struct GraphPoseSourceOptions {
+  MapFrameCovariance map_frame = MapFrameCovariance::kNone;
+};
+
 class GraphPoseSource : public PoseSource {
  public:
+  explicit GraphPoseSource(const GraphPoseSourceOptions& options = {}) : options_(options) {}
   // The robot's keyframes (index k = position, poses in its map frame) and factors between
   // them. Throws std::invalid_argument on a factor naming an unknown keyframe or a graph
   // whose information is singular (a keyframe no factor reaches).
@@ -50,6 +68,7 @@ class GraphPoseSource : public PoseSource {
     Eigen::MatrixXd covariance;  // 3n x 3n, keyframe 0's rows and columns zero
   };
   Eigen::Matrix3d Block(const Robot& r, int i, int j) const;
+  GraphPoseSourceOptions options_;
   std::map<int, Robot> robots_;
   std::map<std::pair<int, int>, UncertainPose> map_transforms_;
 };
