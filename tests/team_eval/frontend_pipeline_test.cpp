@@ -110,3 +110,51 @@ TEST(FrontendPipeline, ObjectMapsUpToATimeAndSharedObjects) {
   EXPECT_EQ(series.back().shared, 5);
   EXPECT_EQ(series.front().match.status, draco::msgs::MatchStatus::kTooFewObjects);
 }
+
+namespace {
+
+draco::msgs::Object Rect(std::uint32_t id, double cx, double cy, double length, double breadth,
+                         double yaw, bool landmark = false) {
+  draco::msgs::Object o;
+  o.id = id;
+  o.center = o.rect_center = {cx, cy};
+  o.length_m = length;
+  o.breadth_m = breadth;
+  o.yaw_rad = yaw;
+  o.landmark = landmark;
+  return o;
+}
+
+}  // namespace
+
+TEST(FrontendPipeline, PairsUnderTransformPairsMeetingRectangles) {
+  // Own map: a 20 x 2 m pier along x at the origin, a pile at (0, 10), a landmark at (5, 5).
+  draco::msgs::ObjectMap a;
+  a.objects = {Rect(1, 0.0, 0.0, 20.0, 2.0, 0.0), Rect(2, 0.0, 10.0, 1.0, 1.0, 0.0),
+               Rect(3, 5.0, 5.0, 0.5, 0.5, 0.0, true)};
+  // Teammate map, rotated by 90 deg and shifted: T_a_b = (3, -1, pi/2).
+  const draco::msgs::Pose2 T_a_b{3.0, -1.0, std::numbers::pi / 2};
+  // In b's frame, a point q maps to a as (3 - q.y, -1 + q.x). The same pier seen from the
+  // other side: its cluster is 8 m long, centred 7 m along the pier from a's centre and 1.5 m
+  // across (centres 7.2 m apart: no centre criterion would pair them).
+  // a-frame centre (7, 1.5) <- b-frame (2.5, -4); its long side along a's x = b's -y.
+  draco::msgs::ObjectMap b;
+  b.objects = {Rect(10, 2.5, -4.0, 8.0, 1.0, std::numbers::pi / 2),
+               // 3.4 m from the pile in a: (0, 13.4) <- b (14.4, 3): grown by 1 m each, the
+               // 1 m squares miss (gap 3.4 - 1 - 2 = 0.4 m).
+               Rect(11, 14.4, 3.0, 1.0, 1.0, 0.0),
+               // A landmark on the pier in b: never paired.
+               Rect(12, 1.0, 0.0, 0.5, 0.5, 0.0, true)};
+  const auto pairs = fe::PairsUnderTransform(a, b, T_a_b, 1.0);
+  ASSERT_EQ(pairs.size(), 1u);
+  EXPECT_EQ(pairs[0].id_a, 1u);
+  EXPECT_EQ(pairs[0].id_b, 10u);
+  EXPECT_NEAR(pairs[0].residual_m, std::hypot(7.0, 1.5), 1e-9);
+  // With a 1.5 m margin the pile squares meet (0.4 m gap < 2 x 0.5 m more).
+  const auto wider = fe::PairsUnderTransform(a, b, T_a_b, 1.5);
+  ASSERT_EQ(wider.size(), 2u);
+  EXPECT_EQ(wider[1].id_a, 2u);
+  EXPECT_EQ(wider[1].id_b, 11u);
+  // A transform 30 m off pairs nothing.
+  EXPECT_TRUE(fe::PairsUnderTransform(a, b, {33.0, -1.0, std::numbers::pi / 2}, 1.0).empty());
+}
