@@ -145,16 +145,17 @@ TEST(FrontendPipeline, PairsUnderTransformPairsMeetingRectangles) {
                Rect(11, 14.4, 3.0, 1.0, 1.0, 0.0),
                // A landmark on the pier in b: never paired.
                Rect(12, 1.0, 0.0, 0.5, 0.5, 0.0, true)};
-  const auto pairs = fe::PairsUnderTransform(a, b, T_a_b, 1.0);
+  const auto pairs = draco::objects::PairsUnderTransform(a, b, T_a_b, 1.0);
   ASSERT_EQ(pairs.size(), 1u);
   EXPECT_EQ(pairs[0].id_a, 1u);
   EXPECT_EQ(pairs[0].id_b, 10u);
   EXPECT_NEAR(pairs[0].residual_m, std::hypot(7.0, 1.5), 1e-9);
   // With a 1.5 m margin the pile squares meet (0.4 m gap < 2 x 0.5 m more).
-  const auto wider = fe::PairsUnderTransform(a, b, T_a_b, 1.5);
+  const auto wider = draco::objects::PairsUnderTransform(a, b, T_a_b, 1.5);
   ASSERT_EQ(wider.size(), 2u);
   EXPECT_EQ(wider[1].id_a, 2u);
   EXPECT_EQ(wider[1].id_b, 11u);
   // A transform 30 m off pairs nothing.
-  EXPECT_TRUE(fe::PairsUnderTransform(a, b, {33.0, -1.0, std::numbers::pi / 2}, 1.0).empty());
+  EXPECT_TRUE(
+      draco::objects::PairsUnderTransform(a, b, {33.0, -1.0, std::numbers::pi / 2}, 1.0).empty());
 }

@@ -406,74 +406,6 @@ PairResult MatchAndRegister(const Robot& A, const Robot& B, const PairOptions& o
   return out;
 }
 
-namespace {
-
-// Corners of an object's rectangle grown by margin_m on every side, placed by T.
-std::array<msgs::Point2, 4> Corners(const msgs::Object& o, const Pose2& T, double margin_m) {
-  const double c = std::cos(o.yaw_rad), s = std::sin(o.yaw_rad);
-  const double hl = 0.5 * o.length_m + margin_m, hb = 0.5 * o.breadth_m + margin_m;
-  std::array<msgs::Point2, 4> out;
-  const double sx[4] = {1, -1, -1, 1}, sy[4] = {1, 1, -1, -1};
-  for (int k = 0; k < 4; ++k) {
-    const msgs::Point2 p{o.rect_center.x_m + c * hl * sx[k] - s * hb * sy[k],
-                         o.rect_center.y_m + s * hl * sx[k] + c * hb * sy[k]};
-    out[static_cast<std::size_t>(k)] = reg::Apply(T, p);
-  }
-  return out;
-}
-
-// Separating-axis test of two convex quadrilaterals.
-bool Intersect(const std::array<msgs::Point2, 4>& a, const std::array<msgs::Point2, 4>& b) {
-  for (const auto* poly : {&a, &b}) {
-    for (std::size_t k = 0; k < 4; ++k) {
-      const auto& p = (*poly)[k];
-      const auto& q = (*poly)[(k + 1) % 4];
-      const double nx = q.y_m - p.y_m, ny = p.x_m - q.x_m;
-      double amin = 1e300, amax = -1e300, bmin = 1e300, bmax = -1e300;
-      for (const auto& v : a) {
-        const double d = nx * v.x_m + ny * v.y_m;
-        amin = std::min(amin, d);
-        amax = std::max(amax, d);
-      }
-      for (const auto& v : b) {
-        const double d = nx * v.x_m + ny * v.y_m;
-        bmin = std::min(bmin, d);
-        bmax = std::max(bmax, d);
-      }
-      if (amax < bmin || bmax < amin) return false;
-    }
-  }
-  return true;
-}
-
-}  // namespace
-
-std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
-                                                  const msgs::ObjectMap& b, const Pose2& T_a_b,
-                                                  double margin_m) {
-  std::vector<msgs::ObjectPair> pairs;
-  std::vector<std::array<msgs::Point2, 4>> rect_a;
-  for (const auto& oa : a.objects) rect_a.push_back(Corners(oa, Pose2{}, margin_m));
-  for (const auto& ob : b.objects) {
-    if (ob.landmark) continue;
-    const auto rb = Corners(ob, T_a_b, margin_m);
-    const auto cb = reg::Apply(T_a_b, ob.center);
-    int best = -1;
-    double best_d = 1e300;
-    for (std::size_t i = 0; i < a.objects.size(); ++i) {
-      if (a.objects[i].landmark || !Intersect(rect_a[i], rb)) continue;
-      const double d =
-          std::hypot(a.objects[i].center.x_m - cb.x_m, a.objects[i].center.y_m - cb.y_m);
-      if (d < best_d) {
-        best_d = d;
-        best = static_cast<int>(i);
-      }
-    }
-    if (best >= 0) pairs.push_back({a.objects[static_cast<std::size_t>(best)].id, ob.id, best_d});
-  }
-  return pairs;
-}
-
 PairResult RegisterWithTransform(const Robot& A, const Robot& B, const Pose2& T_a_b,
                                  const PairOptions& options) {
   PairResult out;
@@ -482,7 +414,8 @@ PairResult RegisterWithTransform(const Robot& A, const Robot& B, const Pose2& T_
   out.match.robot_a = A.id;
   out.match.robot_b = B.id;
   out.match.T_a_b = T_a_b;
-  out.match.pairs = PairsUnderTransform(A.objects, B.objects, T_a_b, options.chain_pair_margin_m);
+  out.match.pairs =
+      objects::PairsUnderTransform(A.objects, B.objects, T_a_b, options.chain_pair_margin_m);
   out.match.num_inliers = static_cast<int>(out.match.pairs.size());
   out.match.status =
       out.match.pairs.empty() ? msgs::MatchStatus::kTooFewInliers : msgs::MatchStatus::kMatched;

@@ -132,18 +132,10 @@ struct PossibleLoops {
 PossibleLoops CountPossibleLoops(const Robot& A, const Robot& B, const PairOptions& options,
                                  int window, double min_overlap);
 
-// Object pairs of a and b when b is placed by T_a_b: each object of b with the own object
-// (nearest centre) whose rectangle meets its rectangle, both grown by margin_m. Rectangles,
-// not centres: the two robots see the same pier from different sides, so their clusters'
-// mean points differ by metres while the rectangles overlap. Landmark objects left out.
-std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
-                                                  const msgs::ObjectMap& b, const Pose2& T_a_b,
-                                                  double margin_m);
-
 // Selection and registration of B's scans against A from a map-to-map transform that did not
 // come from matching A's and B's maps, e.g. chained through a teammate that matched both
 // (T_a_b = T_a_c * T_c_b), as the running team shares its transforms. The object pairs for
-// the selection are those under the transform (PairsUnderTransform, chain_pair_margin_m);
+// the selection are those under the transform (objects::PairsUnderTransform, chain_pair_margin_m);
 // `matched` stays false, `correct` false, err_m / err_deg judge T_a_b.
 PairResult RegisterWithTransform(const Robot& A, const Robot& B, const Pose2& T_a_b,
                                  const PairOptions& options);

@@ -170,6 +170,14 @@ msgs::ObjectMatch MatchObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMa
 int CountMisses(const msgs::ObjectMap& from, const msgs::ObjectMap& to, const Pose2& T_to_from,
                 const Coverage& to_coverage, double distance_m);
 
+// Object pairs of a and b when b is placed by T_a_b: each object of b with the own object
+// (nearest centre) whose rectangle meets its rectangle, both grown by margin_m. Rectangles,
+// not centres: the two robots see the same pier from different sides, so their clusters'
+// mean points differ by metres while the rectangles overlap. Landmark objects left out.
+std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
+                                                  const msgs::ObjectMap& b, const Pose2& T_a_b,
+                                                  double margin_m);
+
 // Time consistency across exchanges: the answers of one robot pair over time. A transform is
 // passed on only once it has won at least min_votes exchanges (answers within same_m /
 // same_rad of each other are one track; the track follows the newest answer as the maps
