@@ -785,6 +785,110 @@ TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   EXPECT_EQ(stage.teammates().count(kB), 0u);
 }
 
+// Objects of `map` as another robot holds them: T_other_map applied to every object.
+msgs::ObjectMap Moved(const msgs::ObjectMap& map, const Pose2& T_other_map) {
+  msgs::ObjectMap out = map;
+  for (auto& o : out.objects) {
+    o.center = reg::Apply(T_other_map, o.center);
+    o.rect_center = reg::Apply(T_other_map, o.rect_center);
+    o.yaw_rad = std::fmod(o.yaw_rad + T_other_map.yaw_rad + 4 * std::numbers::pi, std::numbers::pi);
+  }
+  return out;
+}
+
+TEST(GraphMatcherStage, ChainsAnUnmatchedTeammateThroughASharedEstimate) {
+  // Own map: 10 rectangles of distinct sizes, scattered.
+  msgs::ObjectMap own;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (std::uint32_t i = 0; i < 10; ++i) {
+    msgs::Object o;
+    o.id = 100 + i;
+    o.center = o.rect_center = {80.0 * u(rng), 80.0 * u(rng)};
+    o.length_m = 2.0 + 8.0 * u(rng);
+    o.breadth_m = 0.5 + 1.5 * u(rng);
+    o.yaw_rad = std::numbers::pi * u(rng);
+    o.num_points = 100;
+    o.keyframes = {static_cast<int>(i)};
+    own.objects.push_back(o);
+  }
+  const Pose2 T_a_1{12.0, -7.0, 0.4}, T_a_2{-30.0, 25.0, -1.1};
+  // Teammate 1 holds the same objects in its frame; teammate 2 only two, one of them own
+  // object 103 seen from the other side (its centre 1.5 m off), the other far from anything.
+  const msgs::ObjectMap map1 = Moved(own, reg::Inverse(T_a_1));
+  msgs::ObjectMap seen2;
+  seen2.objects = {own.objects[3]};
+  seen2.objects[0].id = 7;
+  seen2.objects[0].center.x_m += 1.5;
+  seen2.objects[0].rect_center.x_m += 1.5;
+  msgs::Object far = own.objects[5];
+  far.id = 8;
+  far.center = far.rect_center = {300.0, 300.0};
+  seen2.objects.push_back(far);
+  const msgs::ObjectMap map2 = Moved(seen2, reg::Inverse(T_a_2));
+
+  GraphMatcherStageOptions o;
+  o.robot_id = kA;
+  o.match_period_s = 0.0;
+  GraphMatcherStage stage(o);
+  msgs::FleetHeader h1, h2;
+  h1.robot_id = 1;
+  h2.robot_id = 2;
+  stage.OnTeammateObjectMap(h1, map1);
+  stage.OnTeammateObjectMap(h2, map2);
+  msgs::TeamStepStats st;
+  auto requests = stage.Step(10.0, own, 1, &st);
+  // Teammate 1 matches; teammate 2 (two objects) does not, and nothing chains it yet.
+  ASSERT_EQ(requests.size(), 1u);
+  EXPECT_EQ(requests[0].target_robot, 1);
+  ASSERT_TRUE(stage.matches().guesses.at(1).matched);
+  EXPECT_EQ(msgs::GuessOf(stage.matches(), 2), nullptr);
+
+  // Teammate 1 verified teammate 2 and shares T_1_2 in its heartbeats. Both links must repeat
+  // (chain_min_agreeing 3): the own match of 1 and the shared estimate. A first heartbeat
+  // with another value, then the true one: still not steady after two more.
+  msgs::TeammateTransforms shared;
+  shared.header = h1;
+  const Pose2 T_1_2 = reg::Compose(reg::Inverse(T_a_1), T_a_2);
+  shared.transforms = {{2, Pose2{T_1_2.x_m + 20.0, T_1_2.y_m, T_1_2.yaw_rad}},
+                       {kA, Pose2{}}};  // an estimate of ourselves: ignored
+  auto has_request_to_2 = [](const std::vector<msgs::ScanRequest>& rs) {
+    for (const auto& r : rs) {
+      if (r.target_robot == 2) return true;
+    }
+    return false;
+  };
+  double t = 20.0;
+  stage.OnTeammateTransforms(shared);
+  shared.transforms[0].T_sender_robot = T_1_2;
+  for (int k = 0; k < 2; ++k, t += 10.0) {
+    stage.OnTeammateTransforms(shared);
+    stage.OnTeammateObjectMap(h1, map1);  // changed: matched again
+    stage.OnTeammateObjectMap(h2, map2);
+    EXPECT_FALSE(has_request_to_2(stage.Step(t, own, 1, &st))) << k;
+  }
+  stage.OnTeammateTransforms(shared);  // the third steady heartbeat
+  stage.OnTeammateObjectMap(h2, map2);
+  requests = stage.Step(t, own, 1, &st);
+  const msgs::ScanRequest* to2 = nullptr;
+  for (const auto& r : requests) {
+    if (r.target_robot == 2) to2 = &r;
+  }
+  ASSERT_NE(to2, nullptr);
+  const Pose2 e = reg::Between(T_a_2, to2->T_requester_target);
+  EXPECT_LT(std::hypot(e.x_m, e.y_m), 1e-3);
+  EXPECT_LT(std::abs(e.yaw_rad), 1e-4);
+  EXPECT_EQ(to2->object_ids, std::vector<std::uint32_t>{7u});  // the far one has no partner
+  const auto& g = stage.matches().guesses.at(2);
+  EXPECT_TRUE(g.chained);
+  EXPECT_EQ(g.chained_via, 1);
+  ASSERT_NE(msgs::GuessOf(stage.matches(), 2), nullptr);
+  // Teammate 1 restarts: what it shared is forgotten, teammate 2 is not placed any more.
+  stage.Forget(1);
+  stage.Step(t + 10.0, own, 1, &st);
+  EXPECT_EQ(msgs::GuessOf(stage.matches(), 2), nullptr);
+}
+
 // A's filter stage fed A's trajectory and B's full keyframe poses (as B's link would hand
 // them); returns the header B's messages carry.
 msgs::FleetHeader FeedOwnAndTeammatePoses(const Mission& run, ConsistencyStage* stage) {

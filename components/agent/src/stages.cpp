@@ -276,13 +276,37 @@ void GraphMatcherStage::Forget(int robot) {
   roster_.Erase(robot);
   mates_.erase(robot);
   matches_.guesses.erase(robot);
+  shared_.erase(robot);
+}
+
+void GraphMatcherStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
+  const int sender = t.header.robot_id;
+  if (sender == options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, t.header, [this](int r) { Forget(r); })) return;
+  auto& held = shared_[sender];
+  std::map<int, Shared> next;
+  for (const auto& e : t.transforms) {
+    if (e.robot_id == sender || e.robot_id == options_.robot_id || !Finite(e.T_sender_robot))
+      continue;
+    Shared s{e.T_sender_robot, 1};
+    const auto it = held.find(e.robot_id);
+    if (it != held.end() && Agree(it->second.T, s.T)) s.agreeing = it->second.agreeing + 1;
+    next[e.robot_id] = s;
+  }
+  held = std::move(next);
+}
+
+bool GraphMatcherStage::Agree(const Pose2& a, const Pose2& b) const {
+  const Pose2 d = reg::Between(a, b);
+  return std::hypot(d.x_m, d.y_m) <= options_.chain_agree_m &&
+         std::abs(d.yaw_rad) <= options_.chain_agree_rad;
 }
 
 void GraphMatcherStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
                                             const msgs::ObjectMap& map) {
   if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return;
   auto [it, added] = mates_.try_emplace(header.robot_id);
-  if (added) it->second.last_try_s = kNever;
+  if (added) it->second.last_try_s = it->second.last_chain_try_s = kNever;
   it->second.objects = map;
   it->second.objects.robot_id = header.robot_id;
   it->second.map_changed = true;
@@ -294,7 +318,7 @@ void GraphMatcherStage::OnScanRequest(const msgs::ScanRequest& request) {
   if (request.target_robot != options_.robot_id) return;
   if (!roster_.Note(options_.robot_id, request.header, [this](int r) { Forget(r); })) return;
   auto [it, added] = mates_.try_emplace(request.header.robot_id);
-  if (added) it->second.last_try_s = kNever;
+  if (added) it->second.last_try_s = it->second.last_chain_try_s = kNever;
   auto& g = matches_.guesses[request.header.robot_id];
   g.robot_id = request.header.robot_id;
   if (Finite(request.T_requester_target)) {
@@ -323,6 +347,8 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
     ++st->matches_found;
     auto& g = matches_.guesses[robot];
     g.robot_id = robot;
+    mate.agreeing_matches =
+        g.matched && Agree(g.match.T_a_b, match.T_a_b) ? mate.agreeing_matches + 1 : 1;
     g.matched = true;
     g.match = match;
     ++g.match_count;
@@ -347,7 +373,63 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
     out.push_back(std::move(req));
     ++st->requests_sent;
   }
+  if (options_.chain_shared_transforms) ChainUnmatched(now_s, own, &out, st);
   return out;
+}
+
+void GraphMatcherStage::ChainUnmatched(double now_s, const msgs::ObjectMap& own,
+                                       std::vector<msgs::ScanRequest>* out,
+                                       msgs::TeamStepStats* st) {
+  for (auto& [robot, mate] : mates_) {
+    auto& g = matches_.guesses[robot];
+    g.robot_id = robot;
+    if (g.matched) {
+      g.chained = false;
+      continue;
+    }
+    // Through the lowest-id matched teammate that shared a verified estimate of `robot`.
+    std::optional<Pose2> T;
+    int via = -1;
+    for (const auto& [sender, entries] : shared_) {
+      const auto c = matches_.guesses.find(sender);
+      const auto cm = mates_.find(sender);
+      if (c == matches_.guesses.end() || !c->second.matched || cm == mates_.end() ||
+          cm->second.agreeing_matches < options_.chain_min_agreeing) {
+        continue;
+      }
+      const auto e = entries.find(robot);
+      if (e == entries.end() || e->second.agreeing < options_.chain_min_agreeing) continue;
+      T = reg::Compose(c->second.match.T_a_b, e->second.T);
+      via = sender;
+      break;
+    }
+    if (!T) {
+      g.chained = false;
+      continue;
+    }
+    g.chained = true;
+    g.chained_via = via;
+    g.T_own_teammate_chained = *T;
+    if (mate.objects.objects.empty() || own.objects.empty()) continue;
+    if (now_s - mate.last_chain_try_s < options_.match_period_s) continue;
+    mate.last_chain_try_s = now_s;
+    const auto pairs =
+        objects::PairsUnderTransform(own, mate.objects, *T, options_.chain_pair_margin_m);
+    msgs::ScanRequest req;
+    req.header.robot_id = options_.robot_id;
+    req.header.time_s = now_s;
+    req.target_robot = robot;
+    req.object_map_version = mate.map_seq;
+    req.T_requester_target = *T;
+    for (const auto& p : pairs) {
+      if (std::find(req.object_ids.begin(), req.object_ids.end(), p.id_b) == req.object_ids.end())
+        req.object_ids.push_back(p.id_b);
+    }
+    req.max_scans = options_.max_scans_per_request;
+    if (req.object_ids.empty() || req.max_scans <= 0) continue;
+    out->push_back(std::move(req));
+    ++st->requests_sent;
+  }
 }
 
 // ------------------------------------------------------------------------ 3. scans
@@ -512,9 +594,10 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
   // Registration of the scans received since the last step.
   for (auto& [robot, mate] : mates_) {
     const auto g = matches.guesses.find(robot);
-    const auto guess = g != matches.guesses.end() && g->second.matched
-                           ? std::optional<Pose2>(g->second.match.T_a_b)
-                           : std::optional<Pose2>();
+    std::optional<Pose2> guess;
+    if (g != matches.guesses.end() && g->second.matched) guess = g->second.match.T_a_b;
+    if (g != matches.guesses.end() && !g->second.matched && g->second.chained)
+      guess = g->second.T_own_teammate_chained;
     for (std::size_t i = 0; i < mate.scans.size(); ++i) {
       if (mate.scan_registered[i]) continue;
       const msgs::ScanReply& scan = mate.scans[i];

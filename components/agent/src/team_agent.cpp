@@ -128,6 +128,12 @@ void TeamAgent::OnScanReply(const msgs::ScanReply& reply) {
   impl_->exchange.OnScanReply(reply);
 }
 
+void TeamAgent::OnTeammateTransforms(const msgs::TeammateTransforms& transforms) {
+  if (!impl_->Note(transforms.header)) return;
+  impl_->matcher.OnTeammateTransforms(transforms);
+  impl_->optimizer.OnTeammateTransforms(transforms);
+}
+
 void TeamAgent::OnLoopClosures(const msgs::LoopClosureMessage& message) {
   if (message.target_robot != impl_->options.robot_id || !impl_->Note(message.header)) return;
   impl_->consistency.OnLoopClosures(message);

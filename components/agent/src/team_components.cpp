@@ -196,6 +196,10 @@ class GraphMatcherComponent final : public graph::Component {
         "teammate_scan_requests", FromLink("teammates' scan requests: the reverse guess"));
     events_ =
         spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
+    transforms_ = spec.Input<msgs::TeammateTransforms>(
+        "teammate_map_transforms",
+        FromLink("teammates' verified map-to-map estimates (link): a teammate the own matching "
+                 "does not place is chained through them"));
     matches_ = spec.Output<msgs::MapMatches>("matches", "map-to-map guesses, every step");
     requests_out_ = spec.Output<msgs::ScanRequest>("scan_requests", "scan requests to send");
     RobotIdParam(spec, &o_.robot_id);
@@ -203,6 +207,14 @@ class GraphMatcherComponent final : public graph::Component {
                {.doc = "a teammate map matched at most this often", .unit = "s", .min = 0.0});
     spec.Param("max_scans_per_request", &o_.max_scans_per_request,
                {.doc = "scans asked for per request", .min = 0, .max = 256});
+    spec.Param("chain_shared_transforms", &o_.chain_shared_transforms,
+               {.doc = "request scans of a teammate the own matching does not place, through a "
+                       "matched teammate's shared estimate"});
+    spec.Param("chain_pair_margin_m", &o_.chain_pair_margin_m,
+               {.doc = "chained requests: object rectangles grown by this margin pair when they "
+                       "meet",
+                .unit = "m",
+                .min = 0.0});
   }
   Status Start(Context&) override {
     stage_ = std::make_unique<GraphMatcherStage>(o_);
@@ -216,6 +228,7 @@ class GraphMatcherComponent final : public graph::Component {
       stage_->OnTeammateObjectMap(m.header, m.map);
     });
     in_.Add(requests_, kRequest, [this](const auto& r) { stage_->OnScanRequest(r); });
+    in_.Add(transforms_, kTransforms, [this](const auto& t) { stage_->OnTeammateTransforms(t); });
     for (const auto& own : objects_.TakeAll()) {
       in_.ApplyBefore(own.stamp);
       msgs::MapMatches out;
@@ -237,6 +250,7 @@ class GraphMatcherComponent final : public graph::Component {
   graph::In<msgs::TeammateObjectMap> maps_;
   graph::In<msgs::ScanRequest> requests_;
   graph::In<msgs::TeammateEvent> events_;
+  graph::In<msgs::TeammateTransforms> transforms_;
   graph::Out<msgs::MapMatches> matches_;
   graph::Out<msgs::ScanRequest> requests_out_;
 };

@@ -164,6 +164,18 @@ struct GraphMatcherStageOptions {
   objects::MatcherOptions matcher;
   double match_period_s = 10.0;  // a teammate map is matched at most this often
   int max_scans_per_request = 20;
+  // A teammate the own matching does not place, but a matched teammate c has verified by
+  // loops and shared (msgs::TeammateTransforms): T_own_b = T_own_c * T_c_b seeds a request
+  // for the scans of b's objects whose rectangles, grown by chain_pair_margin_m, meet own
+  // objects' (objects::PairsUnderTransform). docs/front-end.md section 3c.
+  bool chain_shared_transforms = true;
+  double chain_pair_margin_m = 1.0;
+  // Both links of a chain must be steady: the own match of c and c's shared estimate each
+  // repeated this many times in a row within chain_agree_m / chain_agree_rad (a match that
+  // flips between hypotheses, or an estimate still moving, seeds no request).
+  int chain_min_agreeing = 3;
+  double chain_agree_m = 1.0;
+  double chain_agree_rad = 0.035;
 };
 
 class GraphMatcherStage {
@@ -174,10 +186,13 @@ class GraphMatcherStage {
     std::uint32_t map_seq = 0;  // header.seq of the map held
     double last_try_s;
     std::uint64_t own_version_at_try = 0;
+    double last_chain_try_s;
+    int agreeing_matches = 0;  // consecutive own matches within chain_agree_* of each other
   };
   explicit GraphMatcherStage(const GraphMatcherStageOptions& options);
   void OnTeammateObjectMap(const msgs::FleetHeader& header, const msgs::ObjectMap& map);
-  void OnScanRequest(const msgs::ScanRequest& request);  // the reverse guess
+  void OnScanRequest(const msgs::ScanRequest& request);                   // the reverse guess
+  void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);  // for chaining
   void Forget(int robot);
   // Matches changed teammate maps against the own map; returns the scan requests to send.
   std::vector<msgs::ScanRequest> Step(double now_s, const msgs::ObjectMap& own,
@@ -186,10 +201,21 @@ class GraphMatcherStage {
   const std::map<int, Teammate>& teammates() const { return mates_; }
 
  private:
+  // Teammates without an own match, placed through a matched teammate's shared estimate;
+  // requests their scans (at most every match_period_s).
+  void ChainUnmatched(double now_s, const msgs::ObjectMap& own, std::vector<msgs::ScanRequest>* out,
+                      msgs::TeamStepStats* st);
+
   GraphMatcherStageOptions options_;
   Roster roster_;
   std::map<int, Teammate> mates_;
   msgs::MapMatches matches_;
+  bool Agree(const msgs::Pose2& a, const msgs::Pose2& b) const;
+  struct Shared {
+    msgs::Pose2 T;     // T_sender_robot
+    int agreeing = 1;  // consecutive heartbeats within chain_agree_* of each other
+  };
+  std::map<int, std::map<int, Shared>> shared_;  // sender -> robot -> its estimate
 };
 
 // ------------------------------------------------------------------------- 3. scans

@@ -102,6 +102,8 @@ class TeamAgent {
   void OnScanRequest(const msgs::ScanRequest& request);
   void OnScanReply(const msgs::ScanReply& reply);
   void OnLoopClosures(const msgs::LoopClosureMessage& message);
+  // A teammate's shared map-to-map estimates (heartbeats): placement and chained requests.
+  void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);
   void ForgetTeammate(int robot_id);
 
   Outbox Step(double now_s);

@@ -43,6 +43,11 @@ struct MapGuess {
   std::uint32_t match_count = 0;  // kMatched answers so far (a new one moves the estimate)
   bool has_reverse = false;       // the inverse of the teammate's scan-request transform
   Pose2 T_own_teammate_reverse;
+  // No own match: T_own_c * T_c_teammate through a matched teammate c that verified the
+  // teammate by loops and shared its estimate (GraphMatcherStage).
+  bool chained = false;
+  int chained_via = -1;
+  Pose2 T_own_teammate_chained;
 };
 
 // Map-to-map guesses after a step's matching, per teammate (ascending id).
@@ -69,6 +74,7 @@ inline const Pose2* GuessOf(const MapMatches& m, int robot) {
   if (it == m.guesses.end()) return nullptr;
   if (it->second.matched) return &it->second.match.T_a_b;
   if (it->second.has_reverse) return &it->second.T_own_teammate_reverse;
+  if (it->second.chained) return &it->second.T_own_teammate_chained;
   return nullptr;
 }
 
