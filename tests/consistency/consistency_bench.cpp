@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "draco/consistency/filter.hpp"
+#include "draco/consistency/graph_pose_source.hpp"
 #include "draco/consistency/max_clique.hpp"
 #include "synthetic.hpp"
 
@@ -137,6 +138,48 @@ void BM_CliqueNaiveBronKerbosch(benchmark::State& state) {
   state.counters["clique"] = static_cast<double>(size);
 }
 BENCHMARK(BM_CliqueNaiveBronKerbosch)->Arg(40)->Arg(60)->Unit(benchmark::kMillisecond);
+
+// Relative-pose covariances from a robot's whole pose graph (GraphPoseSource::SetRobot: the
+// dense inverse of the information) against the open chain's cumulative covariances
+// (ChainPoseSource, the peer). Arg: keyframes; the graph holds the chain plus a loop factor
+// every 20 keyframes back to keyframe k - 15.
+std::vector<Pose2> Lawn(int n) {
+  std::vector<Pose2> poses;
+  Pose2 p{};
+  for (int k = 0; k < n; ++k) {
+    poses.push_back(p);
+    p = Compose(p, Pose2{2.0, 0.0, (k % 25 == 24) ? 1.2 : 0.0});
+  }
+  return poses;
+}
+
+void BM_GraphPoseSourceSetRobot(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const auto poses = Lawn(n);
+  const Eigen::Matrix3d info = Eigen::Vector3d(2500.0, 2500.0, 1e6).asDiagonal();
+  std::vector<RelativeFactor> factors;
+  for (int k = 1; k < n; ++k) factors.push_back({k - 1, k, Between(poses[k - 1], poses[k]), info});
+  for (int k = 20; k < n; k += 20)
+    factors.push_back({k, k - 15, Between(poses[k], poses[k - 15]), info});
+  for (auto _ : state) {
+    GraphPoseSource g;
+    g.SetRobot(0, poses, factors);
+    benchmark::DoNotOptimize(g.NumKeyframes(0));
+  }
+}
+BENCHMARK(BM_GraphPoseSourceSetRobot)->Arg(100)->Arg(200)->Arg(400)->Unit(benchmark::kMillisecond);
+
+void BM_ChainPoseSourceBuild(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const auto poses = Lawn(n);
+  const Eigen::Matrix3d step = Eigen::Vector3d(4e-4, 4e-4, 1e-6).asDiagonal();
+  for (auto _ : state) {
+    ChainPoseSource c;
+    for (const auto& p : poses) c.AddKeyframe(0, p, step);
+    benchmark::DoNotOptimize(c.NumKeyframes(0));
+  }
+}
+BENCHMARK(BM_ChainPoseSourceBuild)->Arg(100)->Arg(200)->Arg(400)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -114,3 +114,29 @@ TEST_F(RunReportTest, WritesReportWithTablesAndFigures) {
     EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();
   }
 }
+
+TEST_F(RunReportTest, SplitsATeamRuntimeFileByRobot) {
+  // An in-process team run: no per-robot files, one runtime_stats.json whose component ids
+  // carry the robot's name.
+  fs::remove(dir_ / "r1.runtime_stats.json");
+  fs::remove(dir_ / "r2.runtime_stats.json");
+  WriteFileAtomically(
+      (dir_ / "runtime_stats.json").string(),
+      R"({"executor": "deterministic", "wall_s": 4.0, "mission_s": 20.0, "components": [)"
+      R"({"id": "r1_cfar", "type": "sonar.Cfar", "calls": 10, "errors": 0, "mean_ms": 2, )"
+      R"("p99_ms": 1, "max_ms": 5, "total_ms": 20, "inputs": []},)"
+      R"({"id": "r2_cfar", "type": "sonar.Cfar", "calls": 30, "errors": 0, "mean_ms": 1, )"
+      R"("p99_ms": 1, "max_ms": 9, "total_ms": 30, "inputs": []},)"
+      R"({"id": "link", "type": "fleet.Link", "calls": 5, "errors": 0, "mean_ms": 1, )"
+      R"("p99_ms": 1, "max_ms": 1, "total_ms": 5, "inputs": []}]})");
+  const RunEvaluation ev = EvaluateRun(dir_.string());
+  ASSERT_EQ(ev.runtimes.size(), 2u);
+  EXPECT_EQ(ev.runtimes[0].robot, "r1");
+  EXPECT_NEAR(ev.runtimes[1].mission_s, 20.0, 1e-12);
+  ASSERT_EQ(ev.runtime_total.size(),
+            1u);  // "cfar" of both robots; the shared link is not a robot's
+  EXPECT_EQ(ev.runtime_total[0].id, "cfar");
+  EXPECT_EQ(ev.runtime_total[0].calls, 40);
+  EXPECT_NEAR(ev.runtime_total[0].mean_ms, 50.0 / 40.0, 1e-9);
+  EXPECT_NEAR(ev.runtime_total[0].max_ms, 9.0, 1e-9);
+}

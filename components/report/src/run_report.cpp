@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -151,12 +152,35 @@ RunEvaluation EvaluateRun(const std::string& run_dir) {
   }
 
   // Runtime: per robot, then per component id over every robot.
+  // A team run in one process (draco-fleet --mode inproc) writes one runtime_stats.json for
+  // the whole team graph, its component ids prefixed "<robot>_": it is split by robot.
   std::map<std::string, std::size_t> index;
+  std::optional<RobotRuntime> team_runtime;
+  bool team_runtime_read = false;
   for (const auto& robot : robots) {
     const fs::path p = dir / (robot + ".runtime_stats.json");
-    if (!fs::exists(p)) continue;
+    const fs::path team_path = dir / "runtime_stats.json";
+    if (!fs::exists(p) && !fs::exists(team_path)) continue;
     try {
-      RobotRuntime rt = ReadRuntimeStats(p.string());
+      RobotRuntime rt;
+      if (fs::exists(p)) {
+        rt = ReadRuntimeStats(p.string());
+      } else {
+        if (!team_runtime_read) {
+          team_runtime_read = true;
+          team_runtime = ReadRuntimeStats(team_path.string());
+        }
+        if (!team_runtime) continue;
+        rt.wall_s = team_runtime->wall_s;
+        rt.mission_s = team_runtime->mission_s;
+        const std::string prefix = robot + "_";
+        for (const auto& c : team_runtime->components) {
+          if (c.id.rfind(prefix, 0) != 0) continue;
+          rt.components.push_back(c);
+          rt.components.back().id = c.id.substr(prefix.size());
+        }
+        if (rt.components.empty()) continue;
+      }
       rt.robot = robot;
       for (const auto& c : rt.components) {
         auto [it, added] = index.emplace(c.id, ev.runtime_total.size());
