@@ -66,7 +66,8 @@ struct LocalGraph {
   std::vector<cons::RelativeFactor> factors;     // every factor of the g2o, loops included
 };
 
-LocalGraph LoadLocalGraph(const std::string& path, const fe::Robot& r, bool full_graph) {
+LocalGraph LoadLocalGraph(const std::string& path, const fe::Robot& r, bool full_graph,
+                          double chain_sigma_m, double chain_sigma_rad) {
   const auto g2o = pg::ReadG2o(path);
   const std::size_t n = r.kfs.size();
   if (g2o.vertices.size() != n) {
@@ -115,7 +116,16 @@ LocalGraph LoadLocalGraph(const std::string& path, const fe::Robot& r, bool full
       f.from = static_cast<int>(k - 1);
       f.to = static_cast<int>(k);
       f.T_from_to = ToPg(reg::Between(r.kfs[k - 1].T_map_kf, r.kfs[k].T_map_kf));
-      const Eigen::Matrix3d I = out.step_covariance[k].inverse();
+      // The optimised local trajectory holds together better than one step's odometry says
+      // (its intra-robot loops): a fixed chain sigma when given, as the running team's own
+      // chain (OptimizerStage, own_chain_sigma_*).
+      const Eigen::Matrix3d I =
+          chain_sigma_m > 0
+              ? Eigen::Matrix3d(Eigen::Vector3d(1.0 / (chain_sigma_m * chain_sigma_m),
+                                                1.0 / (chain_sigma_m * chain_sigma_m),
+                                                1.0 / (chain_sigma_rad * chain_sigma_rad))
+                                    .asDiagonal())
+              : Eigen::Matrix3d(out.step_covariance[k].inverse());
       for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) f.information[3 * a + b] = I(a, b);
       }
@@ -193,6 +203,11 @@ int main(int argc, char** argv) {
   app.add_flag("--shared-transforms,!--no-shared-transforms", shared_transforms,
                "a teammate the own matching does not place is placed through the teammates' "
                "matches, as the running team shares its map-to-map estimates (default on)");
+  double chain_sigma_m = 0.0, chain_sigma_deg = 0.0;
+  app.add_option("--chain-sigma-m", chain_sigma_m,
+                 "PGOs: each robot's local trajectory as a chain with this sigma per keyframe "
+                 "step (0: the local graph's odometry information)");
+  app.add_option("--chain-sigma-deg", chain_sigma_deg, "... and this yaw sigma per step (deg)");
   std::string pose_covariance = "graph";
   app.add_option("--pose-covariance", pose_covariance,
                  "relative-pose covariance in PCM / GCM: graph (marginals of each robot's whole "
@@ -263,8 +278,8 @@ int main(int argc, char** argv) {
     std::vector<draco::eval::Trajectory> truth(robots.size());
     for (int i = 0; i < n; ++i) {
       const auto& r = robots[i];
-      graphs.push_back(
-          LoadLocalGraph(out_dir + "/slam/" + r.name + ".pose_graph.g2o", r, full_local_graph));
+      graphs.push_back(LoadLocalGraph(out_dir + "/slam/" + r.name + ".pose_graph.g2o", r,
+                                      full_local_graph, chain_sigma_m, chain_sigma_deg * kDeg));
       const auto d = draco::eval::ReadTum(out_dir + "/slam/" + r.name + ".dead_reckoning.tum");
       if (d.size() != r.kfs.size()) throw std::runtime_error(r.name + ": dead reckoning size");
       for (const auto& p : d) dr[i].push_back({p.x_m, p.y_m, p.yaw_rad});
