@@ -883,6 +883,14 @@ TEST(GraphMatcherStage, ChainsAnUnmatchedTeammateThroughASharedEstimate) {
   EXPECT_TRUE(g.chained);
   EXPECT_EQ(g.chained_via, 1);
   ASSERT_NE(msgs::GuessOf(stage.matches(), 2), nullptr);
+  // Teammate 2 restarts (a new map frame): 1's estimate of the old one is stale, so its map
+  // is not chained again until 1 has repeated an estimate three times.
+  stage.Forget(2);
+  stage.OnTeammateObjectMap(h2, map2);
+  t += 10.0;
+  stage.OnTeammateTransforms(shared);
+  EXPECT_FALSE(has_request_to_2(stage.Step(t, own, 1, &st)));
+  EXPECT_EQ(msgs::GuessOf(stage.matches(), 2), nullptr);
   // Teammate 1 restarts: what it shared is forgotten, teammate 2 is not placed any more.
   stage.Forget(1);
   stage.Step(t + 10.0, own, 1, &st);

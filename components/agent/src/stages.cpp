@@ -277,6 +277,8 @@ void GraphMatcherStage::Forget(int robot) {
   mates_.erase(robot);
   matches_.guesses.erase(robot);
   shared_.erase(robot);
+  // A restarted robot has a new map frame: what others said of the old one is stale.
+  for (auto& [sender, held] : shared_) held.erase(robot);
 }
 
 void GraphMatcherStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
