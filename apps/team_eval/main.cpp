@@ -310,6 +310,22 @@ int main(int argc, char** argv) {
     std::printf("candidate loops: window %d, overlap >= %.2f; true positive <= %.1f m, %.0f deg\n",
                 window, threshold, tp_m, tp_deg);
 
+    // Pose sources of every robot for the consistency filters (the graph one inverts each
+    // robot's information once, O(n^3)).
+    cons::ChainPoseSource chain_poses_all;
+    cons::GraphPoseSource graph_poses_all({map_frame_drift
+                                               ? cons::MapFrameCovariance::kFromFirstKeyframe
+                                               : cons::MapFrameCovariance::kNone});
+    for (int i = 0; i < n; ++i) {
+      std::vector<Pose2> kf_poses;
+      for (std::size_t k = 0; k < robots[i].kfs.size(); ++k) {
+        chain_poses_all.AddKeyframe(robots[i].id, robots[i].kfs[k].T_map_kf,
+                                    graphs[i].step_covariance[k]);
+        kf_poses.push_back(robots[i].kfs[k].T_map_kf);
+      }
+      if (graph_covariance) graph_poses_all.SetRobot(robots[i].id, kf_poses, graphs[i].factors);
+    }
+
     double ate[kRows][16] = {};
     int loop_accepted[2][16] = {}, loop_tp[2][16] = {};
     std::string loops_csv =
@@ -322,20 +338,10 @@ int main(int argc, char** argv) {
       std::vector<draco::msgs::InterRobotLoop> candidates;
       std::map<std::uint64_t, bool> is_tp;
       team::TeamProblem problem;
-      cons::ChainPoseSource chain_poses;
-      cons::GraphPoseSource graph_poses({map_frame_drift
-                                             ? cons::MapFrameCovariance::kFromFirstKeyframe
-                                             : cons::MapFrameCovariance::kNone});
-      for (int i = 0; i < n; ++i) {
-        problem.robots[robots[i].id] = graphs[i].graph;
-        std::vector<Pose2> kf_poses;
-        for (std::size_t k = 0; k < robots[i].kfs.size(); ++k) {
-          chain_poses.AddKeyframe(robots[i].id, robots[i].kfs[k].T_map_kf,
-                                  graphs[i].step_covariance[k]);
-          kf_poses.push_back(robots[i].kfs[k].T_map_kf);
-        }
-        if (graph_covariance) graph_poses.SetRobot(robots[i].id, kf_poses, graphs[i].factors);
-      }
+      for (int i = 0; i < n; ++i) problem.robots[robots[i].id] = graphs[i].graph;
+      // The robots' poses are the same for every own robot; only the map transforms differ.
+      cons::ChainPoseSource chain_poses = chain_poses_all;
+      cons::GraphPoseSource graph_poses = graph_poses_all;
       const cons::PoseSource& poses =
           graph_covariance ? static_cast<const cons::PoseSource&>(graph_poses) : chain_poses;
       std::vector<Pose2> T_own(robots.size());  // T_a_i guess (identity when none)

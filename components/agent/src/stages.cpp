@@ -359,21 +359,7 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
     std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
       return std::tie(a.residual_m, a.id_b) < std::tie(b.residual_m, b.id_b);
     });
-    msgs::ScanRequest req;
-    req.header.robot_id = options_.robot_id;
-    req.header.time_s = now_s;
-    req.target_robot = robot;
-    req.object_map_version = mate.map_seq;
-    req.T_requester_target = match.T_a_b;
-    for (const auto& p : pairs) {
-      if (std::find(req.object_ids.begin(), req.object_ids.end(), p.id_b) == req.object_ids.end()) {
-        req.object_ids.push_back(p.id_b);
-      }
-    }
-    req.max_scans = options_.max_scans_per_request;
-    if (req.object_ids.empty() || req.max_scans <= 0) continue;
-    out.push_back(std::move(req));
-    ++st->requests_sent;
+    Request(now_s, robot, mate, match.T_a_b, pairs, &out, st);
   }
   if (options_.chain_shared_transforms) ChainUnmatched(now_s, own, &out, st);
   return out;
@@ -415,23 +401,32 @@ void GraphMatcherStage::ChainUnmatched(double now_s, const msgs::ObjectMap& own,
     if (mate.objects.objects.empty() || own.objects.empty()) continue;
     if (now_s - mate.last_chain_try_s < options_.match_period_s) continue;
     mate.last_chain_try_s = now_s;
-    const auto pairs =
-        objects::PairsUnderTransform(own, mate.objects, *T, options_.chain_pair_margin_m);
-    msgs::ScanRequest req;
-    req.header.robot_id = options_.robot_id;
-    req.header.time_s = now_s;
-    req.target_robot = robot;
-    req.object_map_version = mate.map_seq;
-    req.T_requester_target = *T;
-    for (const auto& p : pairs) {
-      if (std::find(req.object_ids.begin(), req.object_ids.end(), p.id_b) == req.object_ids.end())
-        req.object_ids.push_back(p.id_b);
-    }
-    req.max_scans = options_.max_scans_per_request;
-    if (req.object_ids.empty() || req.max_scans <= 0) continue;
-    out->push_back(std::move(req));
-    ++st->requests_sent;
+    Request(now_s, robot, mate, *T,
+            objects::PairsUnderTransform(own, mate.objects, *T, options_.chain_pair_margin_m), out,
+            st);
   }
+}
+
+void GraphMatcherStage::Request(double now_s, int robot, const Teammate& mate,
+                                const Pose2& T_own_teammate,
+                                const std::vector<msgs::ObjectPair>& pairs,
+                                std::vector<msgs::ScanRequest>* out,
+                                msgs::TeamStepStats* st) const {
+  msgs::ScanRequest req;
+  req.header.robot_id = options_.robot_id;
+  req.header.time_s = now_s;
+  req.target_robot = robot;
+  req.object_map_version = mate.map_seq;
+  req.T_requester_target = T_own_teammate;
+  for (const auto& p : pairs) {
+    if (std::find(req.object_ids.begin(), req.object_ids.end(), p.id_b) == req.object_ids.end()) {
+      req.object_ids.push_back(p.id_b);
+    }
+  }
+  req.max_scans = options_.max_scans_per_request;
+  if (req.object_ids.empty() || req.max_scans <= 0) return;
+  out->push_back(std::move(req));
+  ++st->requests_sent;
 }
 
 // ------------------------------------------------------------------------ 3. scans
@@ -596,10 +591,14 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
   // Registration of the scans received since the last step.
   for (auto& [robot, mate] : mates_) {
     const auto g = matches.guesses.find(robot);
-    std::optional<Pose2> guess;
-    if (g != matches.guesses.end() && g->second.matched) guess = g->second.match.T_a_b;
-    if (g != matches.guesses.end() && !g->second.matched && g->second.chained)
-      guess = g->second.T_own_teammate_chained;
+    std::optional<Pose2> guess;  // the own match, else a chained one (not the reverse guess)
+    if (g != matches.guesses.end()) {
+      if (g->second.matched) {
+        guess = g->second.match.T_a_b;
+      } else if (g->second.chained) {
+        guess = g->second.T_own_teammate_chained;
+      }
+    }
     for (std::size_t i = 0; i < mate.scans.size(); ++i) {
       if (mate.scan_registered[i]) continue;
       const msgs::ScanReply& scan = mate.scans[i];

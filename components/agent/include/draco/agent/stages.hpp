@@ -205,6 +205,11 @@ class GraphMatcherStage {
   // requests their scans (at most every match_period_s).
   void ChainUnmatched(double now_s, const msgs::ObjectMap& own, std::vector<msgs::ScanRequest>* out,
                       msgs::TeamStepStats* st);
+  // One request for the teammate objects of `pairs` (in order, each once), seeded by
+  // T_own_teammate; none when there is no object to name.
+  void Request(double now_s, int robot, const Teammate& mate, const msgs::Pose2& T_own_teammate,
+               const std::vector<msgs::ObjectPair>& pairs, std::vector<msgs::ScanRequest>* out,
+               msgs::TeamStepStats* st) const;
 
   GraphMatcherStageOptions options_;
   Roster roster_;
