@@ -32,6 +32,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
 #include "team_setup.hpp"
 
@@ -295,6 +296,13 @@ int main(int argc, char** argv) {
           m == "dds" ? "DDS, one daemon per robot (" + dir + ")" : "in-process (" + dir + ")";
       std::printf("\n%s", draco::report::FormatTeamResult(results[m], title).c_str());
       report += "\n## " + title + "\n\n" + draco::report::TeamResultMarkdown(results[m]);
+      // Where each robot placed each teammate, judged against ground truth.
+      const auto placements = draco::report::EvaluatePlacements(dir, o.mission, team);
+      const std::string table = draco::report::PlacementsMarkdown(placements);
+      draco::graph::WriteFileAtomicallyOrThrow(dir + "/placements_verdict.csv",
+                                               draco::report::PlacementsCsv(placements));
+      std::printf("\nPlacements (right: within 2 m and 5 deg of the truth)\n%s", table.c_str());
+      report += "\n### Placements\n\n" + table;
     }
     if (results.size() == 2) {
       // Same result within 10 %: accepted loops and team ATE, per robot.

@@ -945,7 +945,6 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     auto& count = match_counts_[robot];
     if (g.matched && g.match_count != count) {
       count = g.match_count;
-      estimate_.T_own_teammate[robot] = g.match.T_a_b;
       graph_changed_[robot] = true;
     }
   }
@@ -955,10 +954,27 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   }
   if (accepted != accepted_ids_) accepted_changed_ = true;
   accepted_ids_ = std::move(accepted);
+  // Teammates with enough independent accepted loops (options: min_teammate_loops).
   std::set<int> loop_verified;
-  for (const auto& l : candidates) {
-    if ((l.flags & msgs::kLoopAccepted) && l.teammate_robot != own_id)
-      loop_verified.insert(l.teammate_robot);
+  {
+    struct Evidence {
+      int loops = 0;
+      std::set<int> own_kfs, mate_kfs;
+    };
+    std::map<int, Evidence> evidence;
+    for (const auto& l : candidates) {
+      if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot == own_id) continue;
+      auto& e = evidence[l.teammate_robot];
+      ++e.loops;
+      e.own_kfs.insert(l.own_keyframe);
+      e.mate_kfs.insert(l.teammate_keyframe);
+    }
+    for (const auto& [robot, e] : evidence) {
+      if (e.loops >= options_.min_teammate_loops &&
+          static_cast<int>(e.own_kfs.size()) >= options_.min_distinct_keyframes &&
+          static_cast<int>(e.mate_kfs.size()) >= options_.min_distinct_keyframes)
+        loop_verified.insert(robot);
+    }
   }
   const auto direct = [&](int robot) -> std::optional<Pose2> {
     const Pose2* g = msgs::GuessOf(matches, robot);
@@ -1031,7 +1047,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     problem.maps[{own_id, robot}] = ToPg(*g);
   }
   for (const auto& l : candidates) {
-    if (!(l.flags & msgs::kLoopAccepted)) continue;
+    if (!(l.flags & msgs::kLoopAccepted) || !loop_verified.count(l.teammate_robot)) continue;
     const auto r = problem.robots.find(l.teammate_robot);
     if (r == problem.robots.end()) continue;
     if (l.own_keyframe < 0 || l.own_keyframe >= static_cast<int>(own_poses.size()) ||

@@ -296,6 +296,14 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "registration window (keyframes each side)", .min = 0, .max = 20});
     spec.Param("min_overlap", &o_.registration.min_overlap,
                {.doc = "registration acceptance (overlap ratio)", .min = 0.0, .max = 1.0});
+    spec.Param("ambiguity_offsets_m", &o_.registration.ambiguity_offsets_m,
+               {.doc = "registration ambiguity test: ICP again from the answer moved by each of "
+                       "these (8 directions); empty: off",
+                .unit = "m"});
+    spec.Param("ambiguity_ratio", &o_.registration.ambiguity_ratio,
+               {.doc = "... ambiguous when a distinct answer reaches this fraction of the overlap",
+                .min = 0.0,
+                .max = 1.0});
     spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
                {.doc = "own keyframes this close to a placed teammate scan are candidates",
                 .unit = "m",
@@ -475,7 +483,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
         "Two-step PGO (own chain of local-SLAM poses, teammates' shared trajectories, accepted "
         "loops, map-to-map guesses) at most every optimize_period_s when something changed: "
         "the team estimate in the own map frame. Writes <prefix>team.<robot>.tum per placed "
-        "robot and <prefix>agent_steps.csv (the work of every stage per step).");
+        "robot, <prefix>agent_steps.csv (the work of every stage per step) and "
+        "<prefix>placements.csv (each teammate's map-to-map estimate whenever it changes).");
     loops_ = spec.Input<msgs::TeamLoops>(
         "loops", {.depth = 64, .doc = "loops from team.ConsistencyFilter (runs the step)"});
     keyframe_ = spec.Input<msgs::Keyframe>("keyframe", Absorbed("own keyframes"));
@@ -508,6 +517,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
     spec.Param(
         "own_chain_sigma_yaw_rad", &o_.own_chain_sigma_yaw_rad,
         {.doc = "own trajectory's chain yaw sigma per keyframe step", .unit = "rad", .min = 1e-9});
+    spec.Param(
+        "min_teammate_loops", &o_.min_teammate_loops,
+        {.doc = "a teammate is placed only with at least this many accepted loops", .min = 0});
+    spec.Param("min_distinct_keyframes", &o_.min_distinct_keyframes,
+               {.doc = "... naming at least this many distinct keyframes of each robot", .min = 0});
     spec.Param("chain_from_factors", &o_.two_step.teammate_chain_from_factors,
                {.doc = "global step: teammate chain with its own information, not the "
                        "reference's sigmas"});
@@ -533,6 +547,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
       msgs::TeamStepStats st = l->matches.step;
       stage_->Step(l.stamp.Seconds(), l->candidates, l->matches, &st);
       steps_.push_back(st);
+      LogPlacements();
       auto shared = stage_->SharedTransforms();
       if (shared != shared_) {
         shared_ = shared;
@@ -569,10 +584,42 @@ class TwoStepOptimizerComponent final : public graph::Component {
       steps += line;
     }
     files.push_back({"agent_steps.csv", steps});
+    files.push_back({"placements.csv", placements_});
     return WriteFiles(ctx, prefix_, files);
   }
 
  private:
+  // A row per change of a teammate's placement: placed with its map-to-map estimate
+  // T_own_teammate, or withdrawn (placed 0).
+  void LogPlacements() {
+    const auto& est = stage_->estimate();
+    char line[200];
+    std::map<int, msgs::Pose2> now;  // robots in the estimate's trajectories
+    for (const auto& [id, traj] : est.trajectories) {
+      const auto t = est.T_own_teammate.find(id);
+      if (id != o_.robot_id && t != est.T_own_teammate.end()) now[id] = t->second;
+    }
+    for (const auto& [id, T] : now) {
+      const auto it = placed_.find(id);
+      if (it != placed_.end() && it->second.x_m == T.x_m && it->second.y_m == T.y_m &&
+          it->second.yaw_rad == T.yaw_rad)
+        continue;
+      placed_[id] = T;
+      std::snprintf(line, sizeof line, "%.3f,%s,1,%.4f,%.4f,%.6f\n", est.time_s, Name(id).c_str(),
+                    T.x_m, T.y_m, T.yaw_rad);
+      placements_ += line;
+    }
+    for (auto it = placed_.begin(); it != placed_.end();) {
+      if (now.count(it->first)) {
+        ++it;
+        continue;
+      }
+      std::snprintf(line, sizeof line, "%.3f,%s,0,0,0,0\n", est.time_s, Name(it->first).c_str());
+      placements_ += line;
+      it = placed_.erase(it);
+    }
+  }
+
   std::string Name(int id) const {
     if (id >= 0 && id < static_cast<int>(team_names_.size())) return team_names_[id];
     return "robot" + std::to_string(id);
@@ -584,6 +631,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::string global_anchor_ = "touched";
   std::unique_ptr<OptimizerStage> stage_;
   std::vector<msgs::TeamStepStats> steps_;
+  std::map<int, msgs::Pose2> placed_;  // teammates placed after the last step
+  std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;

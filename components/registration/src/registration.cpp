@@ -117,6 +117,8 @@ const char* RegistrationStatusName(RegistrationStatus status) {
       return "low overlap";
     case RegistrationStatus::kLargeCorrection:
       return "large correction";
+    case RegistrationStatus::kAmbiguous:
+      return "ambiguous";
   }
   return "unknown";
 }
@@ -189,6 +191,38 @@ msgs::Covariance3 LoopCovariance(const icp::IcpResult& r, const RegistrationOpti
   return out;
 }
 
+namespace {
+
+// The ambiguity test of RegistrationOptions: true when a re-alignment from a displaced seed
+// ends distinct from the answer with nearly its overlap. Fills the runner-up fields.
+bool Ambiguous(const icp::Cloud2& source, icp::IcpTarget& target, const RegistrationOptions& o,
+               RegistrationResult* result) {
+  if (o.ambiguity_offsets_m.empty() || o.ambiguity_directions <= 0) return false;
+  const Pose2 best = result->icp.T_target_source;
+  const double needed = o.ambiguity_ratio * result->icp.overlap_ratio;
+  for (const double offset_m : o.ambiguity_offsets_m) {
+    for (int d = 0; d < o.ambiguity_directions; ++d) {
+      const double a = 2.0 * std::numbers::pi * d / o.ambiguity_directions;
+      Pose2 seed = best;
+      seed.x_m += offset_m * std::cos(a);
+      seed.y_m += offset_m * std::sin(a);
+      const icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
+      if (!r.valid) continue;
+      const bool distinct =
+          std::hypot(r.T_target_source.x_m - best.x_m, r.T_target_source.y_m - best.y_m) >
+              o.ambiguity_distinct_m ||
+          std::abs(WrapAngle(r.T_target_source.yaw_rad - best.yaw_rad)) > o.ambiguity_distinct_rad;
+      if (!distinct || r.overlap_ratio <= result->runner_up_overlap) continue;
+      result->runner_up_overlap = r.overlap_ratio;
+      result->runner_up_T = r.T_target_source;
+      if (r.overlap_ratio >= needed) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 RegistrationResult RegisterScan(icp::IcpTarget& target, const std::vector<Point2>& source_kf,
                                 const Pose2& seed, const RegistrationOptions& options) {
   RegistrationResult result;
@@ -217,6 +251,7 @@ RegistrationResult RegisterScan(icp::IcpTarget& target, const std::vector<Point2
     result.status = RegistrationStatus::kLargeCorrection;
   } else {
     result.status = RegistrationStatus::kAccepted;
+    if (Ambiguous(source, target, options, &result)) result.status = RegistrationStatus::kAmbiguous;
   }
   return result;
 }

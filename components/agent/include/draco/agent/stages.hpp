@@ -362,6 +362,14 @@ struct OptimizerStageOptions {
   // measurement (docs/back-end.md, "Own chain stiffness").
   double own_chain_sigma_xy_m = 0.03;
   double own_chain_sigma_yaw_rad = 0.003;
+  // A teammate is placed (its loops enter the PGO, its estimate is shared) only on enough
+  // independent evidence: at least min_teammate_loops accepted loops with it, naming at least
+  // min_distinct_keyframes distinct keyframes of each robot (one scan registered against
+  // several own windows, or several scans against one, is one piece of evidence). The
+  // consistency filter's minimum clique counts loops of every teammate together, so without
+  // this one accepted loop could place a teammate. 0: off.
+  int min_teammate_loops = 5;
+  int min_distinct_keyframes = 3;
 };
 
 struct TeamEstimate {

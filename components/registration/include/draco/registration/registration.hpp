@@ -116,6 +116,18 @@ struct RegistrationOptions {
   double residual_scale = 20.0;  // kReferenceResidual: this * mean squared residual
   // Reject when ICP moved the seed by more than this (0: no gate; the reference has none).
   double max_correction_m = 0.0;
+  // Ambiguity (a row or grid of identical piles, a wall seen along its length): an accepted
+  // registration is aligned again by ICP from its answer moved by each of ambiguity_offsets_m
+  // in ambiguity_directions directions (in the own keyframe frame); when one of these lands
+  // more than ambiguity_distinct_m (or ambiguity_distinct_rad) away from the answer with an
+  // overlap of at least ambiguity_ratio x the answer's, the scan fits two places and the
+  // registration is kAmbiguous. A loop from it would be as likely one period off as right, and
+  // the wrong ones agree with each other (the same offset repeats along the row). Empty: off.
+  std::vector<double> ambiguity_offsets_m{2.5, 5.0};
+  int ambiguity_directions = 8;
+  double ambiguity_ratio = 0.9;
+  double ambiguity_distinct_m = 1.0;
+  double ambiguity_distinct_rad = 0.0873;  // 5 deg
 };
 
 enum class RegistrationStatus : std::uint8_t {
@@ -125,6 +137,7 @@ enum class RegistrationStatus : std::uint8_t {
   kIcpFailed,  // too few correspondences
   kLowOverlap,
   kLargeCorrection,
+  kAmbiguous,  // another pose, distinct from the answer, fits about as well
 };
 const char* RegistrationStatusName(RegistrationStatus status);
 
@@ -136,6 +149,10 @@ struct RegistrationResult {
   icp::IcpResult icp;
   int target_points = 0;
   int target_keyframes = 0;
+  // Ambiguity test (accepted ICP answers only): the best overlap among the re-alignments that
+  // ended distinct from the answer (0: none), and where it ended.
+  double runner_up_overlap = 0.0;
+  Pose2 runner_up_T;
 };
 
 // Indices (positions in own_keyframes, which must be sorted by index without gaps beyond
