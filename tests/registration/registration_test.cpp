@@ -145,6 +145,62 @@ TEST(Register, Rejections) {
             RegistrationStatus::kLargeCorrection);
 }
 
+// A row of identical piles longer than the scans: the answer and the answer one spacing along
+// fit equally well, so the ambiguity test rejects; the same scans with a distinctive object
+// beside the row pass it. Without the test both are accepted.
+std::vector<Point2> PileRow(double spacing_m, int piles, bool with_block) {
+  std::vector<Point2> pts;
+  for (int i = 0; i < piles; ++i) {
+    for (int k = 0; k < 8; ++k) {  // a 0.3 m pile's face, as sonar points
+      const double a = 2.0 * std::numbers::pi * k / 8.0;
+      pts.push_back({i * spacing_m + 0.15 * std::cos(a), 6.0 + 0.15 * std::sin(a)});
+    }
+  }
+  if (with_block) {  // a 4 m x 1 m block beside the row, off-period
+    for (int i = 0; i <= 40; ++i) pts.push_back({3.3 + 0.1 * i, 9.0});
+    for (int i = 0; i <= 10; ++i) pts.push_back({3.3, 9.0 + 0.1 * i});
+  }
+  return pts;
+}
+
+TEST(Register, AmbiguityTestRejectsAPeriodicRow) {
+  for (const bool with_block : {false, true}) {
+    SCOPED_TRACE(with_block ? "row and block" : "row only");
+    // Own window: piles at x = -30 .. 30 (the whole row); teammate scan: x = -9 .. 9 and the
+    // block, seen from 1.7 m further along x, so the true pose is x = +1.7 (not a multiple of
+    // the spacing, whatever the row shows).
+    std::vector<Point2> target;
+    for (const auto& p : PileRow(3.0, 21, false)) target.push_back({p.x_m - 30.0, p.y_m});
+    if (with_block) {
+      for (const auto& p : PileRow(3.0, 0, true)) target.push_back(p);
+    }
+    std::vector<Point2> source;
+    for (const auto& p : target) {
+      if (std::abs(p.x_m) <= 9.5) source.push_back({p.x_m - 1.7, p.y_m});
+    }
+    std::vector<KeyframeScan> own{{0, 0.0, {0.0, 0.0, 0.0}, target}};
+    const Pose2 truth{1.7, 0.0, 0.0};
+    const Pose2 seed{2.1, 0.3, 0.02};
+    RegistrationOptions off;
+    off.ambiguity_offsets_m.clear();
+    const auto plain = RegisterScan(own, 0, source, seed, off);
+    ASSERT_TRUE(plain.accepted()) << RegistrationStatusName(plain.status);
+    ExpectNear(plain.loop.T_ownkf_teammatekf, truth, 0.05, 0.01);
+    const auto tested = RegisterScan(own, 0, source, seed, RegistrationOptions{});
+    if (with_block) {
+      EXPECT_TRUE(tested.accepted())
+          << RegistrationStatusName(tested.status) << " runner-up " << tested.runner_up_overlap;
+      EXPECT_LT(tested.runner_up_overlap, 0.9 * tested.loop.overlap);
+    } else {
+      EXPECT_EQ(tested.status, RegistrationStatus::kAmbiguous);
+      // The runner-up is the row moved by a whole number of spacings.
+      const double shift = tested.runner_up_T.x_m - tested.loop.T_ownkf_teammatekf.x_m;
+      EXPECT_NEAR(std::remainder(shift, 3.0), 0.0, 0.1) << shift;
+      EXPECT_GE(std::abs(shift), 2.9);
+    }
+  }
+}
+
 TEST(Covariance, Models) {
   icp::IcpResult r;
   r.rmse_m = 0.2;
