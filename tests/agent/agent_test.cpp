@@ -684,6 +684,8 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   OptimizerStageOptions o;
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
+  o.min_teammate_loops = 1;  // one loop verifies here (the evidence gate has its own test)
+  o.min_distinct_keyframes = 1;
   OptimizerStage stage(o);
   msgs::KeyframeTrajectory traj;
   for (int k = 0; k < 5; ++k) {
@@ -745,6 +747,73 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   stage.Forget(1);
   stage.Step(30.0, {}, msgs::MapMatches{}, &st);
   EXPECT_EQ(stage.estimate().trajectories.count(2), 0u);
+}
+
+TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
+  // Robot 1 at T_0_1. Seven true loops that all name one teammate keyframe (one scan
+  // registered against several own windows) do not place it; five over three distinct
+  // keyframes of each robot do; when the filter withdraws them, the placement is withdrawn.
+  OptimizerStageOptions o;
+  o.robot_id = 0;
+  o.optimize_period_s = 0.0;
+  OptimizerStage stage(o);
+  msgs::KeyframeTrajectory traj;
+  for (int k = 0; k < 8; ++k) {
+    msgs::Keyframe kf;
+    kf.index = k;
+    kf.time_s = k;
+    kf.T_odom_body = {2.0 * k, 0.0, 0.0};
+    kf.points_body = {{1.0, 0.0}};
+    stage.OnKeyframe(kf);
+    traj.keyframes.push_back({k, double(k), kf.T_odom_body});
+  }
+  stage.OnTrajectory(traj);
+  msgs::KeyframePoses p;
+  p.header.robot_id = 1;
+  p.header.incarnation = 1;
+  p.full = true;
+  for (int k = 0; k < 8; ++k) p.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
+  stage.OnKeyframePoses(p);
+  const Pose2 T_0_1{5.0, 1.0, 0.3};
+  msgs::MapMatches matches;
+  auto& g = matches.guesses[1];
+  g.robot_id = 1;
+  g.matched = true;
+  g.match.T_a_b = T_0_1;
+  g.match_count = 1;
+  const auto loop = [&](std::uint64_t id, int own_k, int mate_k) {
+    msgs::InterRobotLoop l;
+    l.id = id;
+    l.own_robot = 0;
+    l.own_keyframe = own_k;
+    l.teammate_robot = 1;
+    l.teammate_keyframe = mate_k;
+    l.T_ownkf_teammatekf =
+        reg::Between(traj.keyframes[own_k].T_map_kf, reg::Compose(T_0_1, p.poses[mate_k].T_map_kf));
+    l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+    l.flags = msgs::kLoopAccepted;
+    return l;
+  };
+  std::vector<msgs::InterRobotLoop> one_scan;
+  for (int k = 0; k < 7; ++k) one_scan.push_back(loop(k + 1, k, 3));
+  msgs::TeamStepStats st;
+  stage.Step(10.0, one_scan, matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  EXPECT_TRUE(stage.SharedTransforms().empty());
+  const std::vector<msgs::InterRobotLoop> independent{
+      loop(11, 1, 2), loop(12, 3, 4), loop(13, 5, 6), loop(14, 1, 4), loop(15, 3, 6)};
+  stage.Step(20.0, independent, matches, &st);
+  ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+  const Pose2 T = stage.estimate().T_own_teammate.at(1);
+  EXPECT_NEAR(T.x_m, T_0_1.x_m, 1e-3);
+  EXPECT_NEAR(T.y_m, T_0_1.y_m, 1e-3);
+  EXPECT_NEAR(T.yaw_rad, T_0_1.yaw_rad, 1e-4);
+  ASSERT_EQ(stage.SharedTransforms().size(), 1u);
+  auto withdrawn = independent;
+  for (auto& l : withdrawn) l.flags = msgs::kLoopRejected;
+  stage.Step(30.0, withdrawn, matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  EXPECT_TRUE(stage.SharedTransforms().empty());
 }
 
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {

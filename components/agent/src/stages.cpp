@@ -999,9 +999,11 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     const auto it = chained.find(robot);
     return it != chained.end() ? std::optional<Pose2>(it->second) : direct(robot);
   };
+  // A teammate verified or withdrawn (the filter retracted its loops) is placed anew now.
+  bool graphs_changed = own_graph_changed_ || loop_verified != loop_verified_;
+  if (loop_verified != loop_verified_) accepted_changed_ = true;
   loop_verified_ = loop_verified;
 
-  bool graphs_changed = own_graph_changed_;
   for (const auto& [robot, changed] : graph_changed_) graphs_changed = graphs_changed || changed;
   std::vector<Pose2> own_poses;
   std::vector<bool> own_real;
