@@ -183,6 +183,7 @@ TEST(Register, AmbiguityTestRejectsAPeriodicRow) {
     const Pose2 seed{2.1, 0.3, 0.02};
     RegistrationOptions off;
     off.ambiguity_offsets_m.clear();
+    off.ambiguity_turns_deg.clear();
     const auto plain = RegisterScan(own, 0, source, seed, off);
     ASSERT_TRUE(plain.accepted()) << RegistrationStatusName(plain.status);
     ExpectNear(plain.loop.T_ownkf_teammatekf, truth, 0.05, 0.01);
@@ -193,10 +194,24 @@ TEST(Register, AmbiguityTestRejectsAPeriodicRow) {
       EXPECT_LT(tested.runner_up_overlap, 0.9 * tested.loop.overlap);
     } else {
       EXPECT_EQ(tested.status, RegistrationStatus::kAmbiguous);
-      // The runner-up is the row moved by a whole number of spacings.
-      const double shift = tested.runner_up_T.x_m - tested.loop.T_ownkf_teammatekf.x_m;
+      // Shifts alone: the runner-up is the row moved by a whole number of spacings.
+      RegistrationOptions shifts;
+      shifts.ambiguity_turns_deg.clear();
+      const auto shifted = RegisterScan(own, 0, source, seed, shifts);
+      EXPECT_EQ(shifted.status, RegistrationStatus::kAmbiguous);
+      const double shift = shifted.runner_up_T.x_m - shifted.loop.T_ownkf_teammatekf.x_m;
       EXPECT_NEAR(std::remainder(shift, 3.0), 0.0, 0.1) << shift;
       EXPECT_GE(std::abs(shift), 2.9);
+      EXPECT_NEAR(WrapAngle(shifted.runner_up_T.yaw_rad - shifted.loop.T_ownkf_teammatekf.yaw_rad),
+                  0.0, 0.02);
+      // Turns alone: one straight row is the same turned by 180 deg.
+      RegistrationOptions turns;
+      turns.ambiguity_offsets_m.clear();
+      const auto turned = RegisterScan(own, 0, source, seed, turns);
+      EXPECT_EQ(turned.status, RegistrationStatus::kAmbiguous);
+      EXPECT_NEAR(
+          std::abs(WrapAngle(turned.runner_up_T.yaw_rad - turned.loop.T_ownkf_teammatekf.yaw_rad)),
+          std::numbers::pi, 0.05);
     }
   }
 }

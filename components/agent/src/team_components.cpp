@@ -300,6 +300,9 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "registration ambiguity test: ICP again from the answer moved by each of "
                        "these (8 directions); empty: off",
                 .unit = "m"});
+    spec.Param("ambiguity_turns_deg", &o_.registration.ambiguity_turns_deg,
+               {.doc = "... and from the answer turned by each of these about the scan's centroid",
+                .unit = "deg"});
     spec.Param("ambiguity_ratio", &o_.registration.ambiguity_ratio,
                {.doc = "... ambiguous when a distinct answer reaches this fraction of the overlap",
                 .min = 0.0,

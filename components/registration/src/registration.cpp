@@ -197,26 +197,38 @@ namespace {
 // ends distinct from the answer with nearly its overlap. Fills the runner-up fields.
 bool Ambiguous(const icp::Cloud2& source, icp::IcpTarget& target, const RegistrationOptions& o,
                RegistrationResult* result) {
-  if (o.ambiguity_offsets_m.empty() || o.ambiguity_directions <= 0) return false;
   const Pose2 best = result->icp.T_target_source;
-  const double needed = o.ambiguity_ratio * result->icp.overlap_ratio;
+  std::vector<Pose2> seeds;
   for (const double offset_m : o.ambiguity_offsets_m) {
     for (int d = 0; d < o.ambiguity_directions; ++d) {
       const double a = 2.0 * std::numbers::pi * d / o.ambiguity_directions;
-      Pose2 seed = best;
-      seed.x_m += offset_m * std::cos(a);
-      seed.y_m += offset_m * std::sin(a);
-      const icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
-      if (!r.valid) continue;
-      const bool distinct =
-          std::hypot(r.T_target_source.x_m - best.x_m, r.T_target_source.y_m - best.y_m) >
-              o.ambiguity_distinct_m ||
-          std::abs(WrapAngle(r.T_target_source.yaw_rad - best.yaw_rad)) > o.ambiguity_distinct_rad;
-      if (!distinct || r.overlap_ratio <= result->runner_up_overlap) continue;
-      result->runner_up_overlap = r.overlap_ratio;
-      result->runner_up_T = r.T_target_source;
-      if (r.overlap_ratio >= needed) return true;
+      seeds.push_back(
+          {best.x_m + offset_m * std::cos(a), best.y_m + offset_m * std::sin(a), best.yaw_rad});
     }
+  }
+  if (!o.ambiguity_turns_deg.empty() && !source.empty()) {
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (const auto& p : source) c += p;
+    c /= static_cast<double>(source.size());
+    for (const double turn_deg : o.ambiguity_turns_deg) {
+      // The source turned about its own centroid c: T * Trans(c) * Rot(turn) * Trans(-c).
+      const Pose2 about = Compose(Pose2{c.x(), c.y(), turn_deg * std::numbers::pi / 180.0},
+                                  Pose2{-c.x(), -c.y(), 0.0});
+      seeds.push_back(Compose(best, about));
+    }
+  }
+  const double needed = o.ambiguity_ratio * result->icp.overlap_ratio;
+  for (const Pose2& seed : seeds) {
+    const icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
+    if (!r.valid) continue;
+    const bool distinct =
+        std::hypot(r.T_target_source.x_m - best.x_m, r.T_target_source.y_m - best.y_m) >
+            o.ambiguity_distinct_m ||
+        std::abs(WrapAngle(r.T_target_source.yaw_rad - best.yaw_rad)) > o.ambiguity_distinct_rad;
+    if (!distinct || r.overlap_ratio <= result->runner_up_overlap) continue;
+    result->runner_up_overlap = r.overlap_ratio;
+    result->runner_up_T = r.T_target_source;
+    if (r.overlap_ratio >= needed) return true;
   }
   return false;
 }

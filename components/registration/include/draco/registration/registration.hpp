@@ -122,9 +122,13 @@ struct RegistrationOptions {
   // more than ambiguity_distinct_m (or ambiguity_distinct_rad) away from the answer with an
   // overlap of at least ambiguity_ratio x the answer's, the scan fits two places and the
   // registration is kAmbiguous. A loop from it would be as likely one period off as right, and
-  // the wrong ones agree with each other (the same offset repeats along the row). Empty: off.
+  // the wrong ones agree with each other (the same offset repeats along the row). Both lists
+  // empty: off.
   std::vector<double> ambiguity_offsets_m{2.5, 5.0};
   int ambiguity_directions = 8;
+  // ... and from the answer turned by each of these about the scan's centroid (a square grid
+  // of piles matches itself turned by 90 deg, any grid by 180 deg).
+  std::vector<double> ambiguity_turns_deg{90.0, 180.0, 270.0};
   double ambiguity_ratio = 0.9;
   double ambiguity_distinct_m = 1.0;
   double ambiguity_distinct_rad = 0.0873;  // 5 deg
