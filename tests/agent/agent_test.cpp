@@ -809,6 +809,31 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   EXPECT_NEAR(T.y_m, T_0_1.y_m, 1e-3);
   EXPECT_NEAR(T.yaw_rad, T_0_1.yaw_rad, 1e-4);
   ASSERT_EQ(stage.SharedTransforms().size(), 1u);
+  // Rejected candidates that agree on another transform (4 m off along x, as a pile grid one
+  // spacing off) over three keyframes of each robot: the evidence is contested, no placement.
+  const Pose2 T_rival{T_0_1.x_m + 4.0, T_0_1.y_m, T_0_1.yaw_rad};
+  auto contested = independent;
+  for (int k = 0; k < 3; ++k) {
+    auto l = loop(21 + k, 2 * k + 2, 2 * k + 1);
+    l.T_ownkf_teammatekf = reg::Between(traj.keyframes[2 * k + 2].T_map_kf,
+                                        reg::Compose(T_rival, p.poses[2 * k + 1].T_map_kf));
+    l.flags = msgs::kLoopRejected;
+    contested.push_back(l);
+  }
+  stage.Step(25.0, contested, matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  // Scattered rejected candidates (no two agree) do not contest it.
+  auto scattered = independent;
+  for (int k = 0; k < 3; ++k) {
+    auto l = loop(31 + k, 2 * k + 2, 2 * k + 1);
+    const Pose2 T_off{T_0_1.x_m + 4.0 * (k + 1), T_0_1.y_m - 3.0 * k, T_0_1.yaw_rad + 0.5 * k};
+    l.T_ownkf_teammatekf = reg::Between(traj.keyframes[2 * k + 2].T_map_kf,
+                                        reg::Compose(T_off, p.poses[2 * k + 1].T_map_kf));
+    l.flags = msgs::kLoopRejected;
+    scattered.push_back(l);
+  }
+  stage.Step(27.0, scattered, matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 1u);
   auto withdrawn = independent;
   for (auto& l : withdrawn) l.flags = msgs::kLoopRejected;
   stage.Step(30.0, withdrawn, matches, &st);

@@ -80,6 +80,24 @@ class WallTimer {
   std::chrono::steady_clock::time_point t0_;
 };
 
+// Distinct keyframes of each robot named by a set of loops: the smaller of the two counts.
+int DistinctKeyframes(const std::vector<const msgs::InterRobotLoop*>& loops) {
+  std::set<int> own, mate;
+  for (const auto* l : loops) {
+    own.insert(l->own_keyframe);
+    mate.insert(l->teammate_keyframe);
+  }
+  return static_cast<int>(std::min(own.size(), mate.size()));
+}
+
+// Distance between two map-to-map transforms where it matters: at the point c (teammate map
+// frame) they both move, and the yaw difference.
+std::pair<double, double> TransformGap(const Pose2& a, const Pose2& b, const msgs::Point2& c) {
+  const auto pa = reg::Apply(a, c), pb = reg::Apply(b, c);
+  return {std::hypot(pa.x_m - pb.x_m, pa.y_m - pb.y_m),
+          std::abs(reg::WrapAngle(a.yaw_rad - b.yaw_rad))};
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------ shared pieces
@@ -930,6 +948,72 @@ void OptimizerStage::Forget(int robot) {
   own_graph_changed_ = true;  // the estimate is recomputed without it
 }
 
+bool OptimizerStage::Contested(int robot,
+                               const std::vector<msgs::InterRobotLoop>& candidates) const {
+  const OptimizerStageOptions& o = options_;
+  if (o.competitor_ratio <= 0.0) return false;
+  const auto* held = poses_.Find(robot);
+  if (!held) return false;
+  // The map-to-map transform each candidate with `robot` implies.
+  struct Implied {
+    const msgs::InterRobotLoop* loop;
+    Pose2 T;
+  };
+  std::vector<Implied> accepted, others;
+  for (const auto& l : candidates) {
+    if (l.teammate_robot != robot) continue;
+    const auto own = own_.entries().find(l.own_keyframe);
+    if (own == own_.entries().end() || !own->second.has_pose) continue;
+    if (l.teammate_keyframe < 0 ||
+        l.teammate_keyframe >= static_cast<int>(held->keyframes.size()) ||
+        !held->known[static_cast<std::size_t>(l.teammate_keyframe)])
+      continue;
+    const Pose2 T = reg::Compose(
+        reg::Compose(own->second.T_map_kf, l.T_ownkf_teammatekf),
+        reg::Inverse(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf));
+    (l.flags & msgs::kLoopAccepted ? accepted : others).push_back({&l, T});
+  }
+  if (accepted.empty()) return false;
+  // The teammate's keyframe centroid: where a transform error shows.
+  msgs::Point2 c{0.0, 0.0};
+  int n = 0;
+  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+    if (!held->known[k]) continue;
+    c.x_m += held->keyframes[k].T_map_kf.x_m;
+    c.y_m += held->keyframes[k].T_map_kf.y_m;
+    ++n;
+  }
+  if (n > 0) {
+    c.x_m /= n;
+    c.y_m /= n;
+  }
+  const auto far_from_accepted = [&](const Pose2& T) {
+    for (const auto& a : accepted) {
+      const auto [m, rad] = TransformGap(T, a.T, c);
+      if (m <= o.competitor_distinct_m && rad <= o.competitor_distinct_rad) return false;
+    }
+    return true;
+  };
+  std::vector<const Implied*> rivals;
+  for (const auto& x : others) {
+    if (far_from_accepted(x.T)) rivals.push_back(&x);
+  }
+  std::vector<const msgs::InterRobotLoop*> acc;
+  for (const auto& a : accepted) acc.push_back(a.loop);
+  const int support = DistinctKeyframes(acc);
+  const double needed = std::max<double>(o.min_distinct_keyframes, o.competitor_ratio * support);
+  // Each rival as the seed of a group of the rivals that agree with it.
+  for (const auto* seed : rivals) {
+    std::vector<const msgs::InterRobotLoop*> group;
+    for (const auto* x : rivals) {
+      const auto [m, rad] = TransformGap(x->T, seed->T, c);
+      if (m <= o.competitor_agree_m && rad <= o.competitor_agree_rad) group.push_back(x->loop);
+    }
+    if (DistinctKeyframes(group) >= needed) return true;
+  }
+  return false;
+}
+
 void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
                           const msgs::MapMatches& matches, msgs::TeamStepStats* st) {
   WallTimer wall(st);
@@ -972,7 +1056,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     for (const auto& [robot, e] : evidence) {
       if (e.loops >= options_.min_teammate_loops &&
           static_cast<int>(e.own_kfs.size()) >= options_.min_distinct_keyframes &&
-          static_cast<int>(e.mate_kfs.size()) >= options_.min_distinct_keyframes)
+          static_cast<int>(e.mate_kfs.size()) >= options_.min_distinct_keyframes &&
+          !Contested(robot, candidates))
         loop_verified.insert(robot);
     }
   }

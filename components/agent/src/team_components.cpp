@@ -525,6 +525,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
         {.doc = "a teammate is placed only with at least this many accepted loops", .min = 0});
     spec.Param("min_distinct_keyframes", &o_.min_distinct_keyframes,
                {.doc = "... naming at least this many distinct keyframes of each robot", .min = 0});
+    spec.Param("competitor_ratio", &o_.competitor_ratio,
+               {.doc = "no placement while candidates the filter rejected agree on another "
+                       "transform with this fraction of the accepted loops' distinct keyframes "
+                       "(0: off)",
+                .min = 0.0});
     spec.Param("chain_from_factors", &o_.two_step.teammate_chain_from_factors,
                {.doc = "global step: teammate chain with its own information, not the "
                        "reference's sigmas"});

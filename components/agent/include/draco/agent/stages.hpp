@@ -370,6 +370,20 @@ struct OptimizerStageOptions {
   // this one accepted loop could place a teammate. 0: off.
   int min_teammate_loops = 5;
   int min_distinct_keyframes = 3;
+  // Competing evidence: every candidate loop with a teammate implies a map-to-map transform
+  // (own keyframe pose * loop * inverse teammate keyframe pose). Candidates the filter did not
+  // accept whose transforms agree with each other (within competitor_agree_m at the
+  // teammate's keyframe centroid and competitor_agree_rad), but not with the accepted loops'
+  // (further than competitor_distinct_m or competitor_distinct_rad), are a second hypothesis
+  // (a grid one spacing off, a symmetric structure turned). When such a group names at least
+  // min_distinct_keyframes keyframes of each robot and competitor_ratio x the accepted loops'
+  // distinct keyframes, the evidence is ambiguous and the teammate is not placed (or is
+  // withdrawn) until it is not. competitor_ratio <= 0: off.
+  double competitor_ratio = 0.5;
+  double competitor_agree_m = 1.5;
+  double competitor_agree_rad = 0.0873;  // 5 deg
+  double competitor_distinct_m = 3.0;
+  double competitor_distinct_rad = 0.1745;  // 10 deg
 };
 
 struct TeamEstimate {
@@ -400,6 +414,10 @@ class OptimizerStage {
   const TeammatePoses& teammate_poses() const { return poses_; }
 
  private:
+  // True when candidates the filter did not accept form a rival hypothesis for `robot`
+  // (OptimizerStageOptions::competitor_ratio).
+  bool Contested(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
+
   OptimizerStageOptions options_;
   OwnKeyframes own_;
   TeammatePoses poses_;
