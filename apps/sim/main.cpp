@@ -3,6 +3,7 @@
 //
 //   draco-sim MISSION.yaml --out DIR [--seed N] [--duration-s S] [--robots K]
 //   draco-sim --world WORLD.yaml --picture out.png
+//   draco-sim generate --seed N --out DIR [--style FILE.yaml] [--robots K] [--no-picture]
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -13,15 +14,18 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <mutex>
 #include <optional>
 #include <sstream>
 #include <thread>
 
+#include "draco/sim/generator.hpp"
 #include "draco/sim/mission.hpp"
 #include "draco/sim/simulator.hpp"
 #include "draco/sim/sonar_model.hpp"
+#include "draco/sim/trajectory.hpp"
 #include "draco/sim/world.hpp"
 #include "mission_output.hpp"
 #include "pictures.hpp"
@@ -286,6 +290,43 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
   return 0;
 }
 
+// Draws a world and mission and writes DIR/{world.yaml, mission.yaml, scenario.txt, world.png}.
+int RunGenerate(std::uint64_t seed, const std::string& out_dir, const std::string& style_file,
+                std::optional<int> robots, bool picture) {
+  const auto t_start = Clock::now();
+  draco::sim::GeneratorOptions options;
+  if (!style_file.empty()) options = draco::sim::LoadGeneratorOptions(style_file);
+  if (robots) options.robots = {*robots, *robots};
+  const draco::sim::Scenario scenario = draco::sim::GenerateScenario(options, seed);
+  const double gen_ms = 1e3 * std::chrono::duration<double>(Clock::now() - t_start).count();
+
+  const std::filesystem::path dir(out_dir);
+  std::filesystem::create_directories(dir);
+  auto write = [&](const char* name, const std::string& text) {
+    std::ofstream out(dir / name);
+    out << text;
+    if (!out) throw std::runtime_error((dir / name).string() + ": cannot write");
+  };
+  write("world.yaml", scenario.world_yaml);
+  write("mission.yaml", scenario.mission_yaml);
+  write("scenario.txt", scenario.summary);
+  // Read back with the simulator's own loaders.
+  const draco::sim::World world = draco::sim::LoadWorld(dir / "world.yaml");
+  const draco::sim::Mission mission = draco::sim::LoadMission(dir / "mission.yaml");
+  if (picture) {
+    std::vector<draco::sim_app::PathDrawing> paths;
+    for (const auto& r : mission.robots) paths.push_back({r.name, draco::sim::PatternPath(r)});
+    draco::sim_app::WriteWorldPicture(world, paths, dir / "world.png");
+  }
+  std::cout << "draco-sim generate: style " << scenario.style << ", seed " << seed << ": "
+            << scenario.objects << " objects (" << world.primitives.size() << " primitives), "
+            << mission.robots.size() << " robots, periodic " << (scenario.periodic ? "yes" : "no")
+            << ", generated in " << std::fixed << std::setprecision(1) << gen_ms << " ms\n"
+            << "wrote " << (dir / "world.yaml").string() << ", mission.yaml, scenario.txt"
+            << (picture ? ", world.png" : "") << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -313,9 +354,31 @@ int main(int argc, char** argv) {
                "navigation and ground truth only (fast; for designing missions)");
   auto* world_opt = app.add_option("--world", world_file, "world YAML, with --picture");
   app.add_option("--picture", picture, "write a PNG of --world and exit")->needs(world_opt);
+
+  auto* generate = app.add_subcommand(
+      "generate", "draw a harbour-like world and multi-robot mission (docs/simulator.md)");
+  std::uint64_t gen_seed = 0;
+  std::string gen_out;
+  std::string gen_style;
+  int gen_robots = 0;
+  bool gen_picture = true;
+  generate->add_option("--seed", gen_seed, "seed: the same seed gives the same files")->required();
+  generate->add_option("--out", gen_out, "output folder")->required();
+  generate->add_option("--style", gen_style,
+                       "style YAML (default: built-in, config/generator/harbour.yaml)");
+  auto* gen_robots_opt =
+      generate->add_option("--robots", gen_robots, "number of robots (default: style's range)")
+          ->check(CLI::Range(1, 8));
+  generate->add_flag("--picture,!--no-picture", gen_picture,
+                     "write DIR/world.png with the planned paths (default: on)");
   CLI11_PARSE(app, argc, argv);
 
   try {
+    if (generate->parsed()) {
+      return RunGenerate(gen_seed, gen_out, gen_style,
+                         gen_robots_opt->count() ? std::optional<int>(gen_robots) : std::nullopt,
+                         gen_picture);
+    }
     if (!picture.empty()) {
       const draco::sim::World world = draco::sim::LoadWorld(world_file);
       draco::sim_app::WriteWorldPicture(world, {}, picture);
@@ -323,7 +386,8 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (mission_file.empty() || out_opt->count() == 0) {
-      std::cerr << "draco-sim: give MISSION.yaml and --out DIR (or --world W --picture P)\n";
+      std::cerr << "draco-sim: give MISSION.yaml and --out DIR (or --world W --picture P, or "
+                   "generate --seed N --out DIR)\n";
       return 2;
     }
     return RunMission(mission_file, out_dir,

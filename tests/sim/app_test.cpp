@@ -82,4 +82,34 @@ TEST(SimApp, MalformedMissionNamesFileAndLine) {
   fs::remove_all(dir);
 }
 
+TEST(SimApp, GeneratesAMissionItCanSimulate) {
+  const fs::path dir = fs::temp_directory_path() / "draco_sim_app_generate";
+  fs::remove_all(dir);
+  ASSERT_EQ(RunSim("generate --seed 4 --out " + (dir / "g").string(), dir.string() + ".log"), 0)
+      << ReadAll(dir.string() + ".log");
+  for (const char* f : {"world.yaml", "mission.yaml", "scenario.txt", "world.png"}) {
+    EXPECT_TRUE(fs::exists(dir / "g" / f)) << f;
+  }
+  const std::string summary = ReadAll(dir / "g" / "scenario.txt");
+  EXPECT_NE(summary.find("seed: 4\n"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("periodic: "), std::string::npos) << summary;
+  // The same seed again, without the picture: the same files.
+  ASSERT_EQ(
+      RunSim("generate --seed 4 --no-picture --out " + (dir / "h").string(), dir.string() + ".log"),
+      0);
+  EXPECT_FALSE(fs::exists(dir / "h" / "world.png"));
+  EXPECT_EQ(ReadAll(dir / "g" / "mission.yaml"), ReadAll(dir / "h" / "mission.yaml"));
+  EXPECT_EQ(ReadAll(dir / "g" / "world.yaml"), ReadAll(dir / "h" / "world.yaml"));
+  // draco-sim simulates it (2 s, one robot).
+  ASSERT_EQ(RunSim((dir / "g" / "mission.yaml").string() + " --out " + (dir / "m").string() +
+                       " --duration-s 2 --robots 1 --no-pictures",
+                   dir.string() + ".log"),
+            0)
+      << ReadAll(dir.string() + ".log");
+  const auto info = draco::recording::LoadMissionInfo(dir / "m");
+  EXPECT_EQ(info.robots.size(), 1u);
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".log");
+}
+
 }  // namespace
