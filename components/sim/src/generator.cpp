@@ -247,10 +247,10 @@ class StyleParser {
   void ParseMission(const YAML::Node& node) {
     yaml::Map m(
         file_, node, "style section 'mission'",
-        {"robots", "path_length_m", "speed_mps", "depth_m", "min_altitude_m", "sonar_tilt_deg",
-         "start_time_s", "path_clearance_m", "driven_clearance_m", "overlap_radius_m", "overlap",
-         "near_structure_m", "min_near_structure", "open_water_probability", "periodic_robots",
-         "periodic_exposure", "pattern_weights"});
+        {"robots", "path_length_m", "speed_mps", "depth_m", "min_altitude_m", "max_altitude_m",
+         "sonar_tilt_deg", "start_time_s", "path_clearance_m", "driven_clearance_m",
+         "overlap_radius_m", "overlap", "near_structure_m", "min_near_structure",
+         "open_water_probability", "periodic_robots", "periodic_exposure", "pattern_weights"});
     Ints(m, "robots", &o_->robots, 1, 8);
     Range(m, "path_length_m", &o_->path_length_m, 20.0, 100000.0);
     if (o_->path_length_m.max - o_->path_length_m.min < 20.0) {
@@ -259,6 +259,7 @@ class StyleParser {
     Range(m, "speed_mps", &o_->speed_mps, 0.05, 5.0);
     Range(m, "depth_m", &o_->depth_m, 0.1, 100.0);
     Number(m, "min_altitude_m", &o_->min_altitude_m, 0.0, 100.0);
+    Number(m, "max_altitude_m", &o_->max_altitude_m, 0.5, 100.0);
     Range(m, "sonar_tilt_deg", &o_->sonar_tilt_deg, -30.0, 60.0);
     Range(m, "start_time_s", &o_->start_time_s, 0.0, 1e6);
     Number(m, "path_clearance_m", &o_->path_clearance_m, 0.5, 50.0);
@@ -2024,14 +2025,19 @@ class MissionMaker {
                                 bool open_allowed, bool want_periodic) {
     want_periodic = want_periodic && !periodic_anchors_.empty();
     const double bed_min = w_.MinBedDepth();
-    const double depth_hi =
+    double depth_hi =
         std::max(o_.depth_m.min, std::min(o_.depth_m.max, bed_min - o_.min_altitude_m));
+    // Deep water: the vehicle goes down to keep the DVL in bottom lock over the deepest bed
+    // (beyond the style's depth range if it must, never closer than min_altitude_m).
+    const double depth_lo = std::min(std::max(o_.depth_m.min, w_.MaxBedDepth() - o_.max_altitude_m),
+                                     std::max(o_.depth_m.min, bed_min - o_.min_altitude_m));
+    depth_hi = std::max(depth_hi, depth_lo);
     for (int attempt = 0; attempt < 60; ++attempt) {
       Plan plan;
       RobotSpec& r = plan.spec;
       r.name = kRobotNames[k];
       r.speed_mps = Round(Draw(rng_, o_.speed_mps), 2);
-      r.depth_m = Round(rng_.Uniform(o_.depth_m.min, depth_hi), 1);
+      r.depth_m = Round(rng_.Uniform(depth_lo, depth_hi), 1);
       r.start_time_s = Round(Draw(rng_, o_.start_time_s), 1);
       const double target = Draw(rng_, o_.path_length_m);
       const double max_len = o_.path_length_m.max;

@@ -123,7 +123,10 @@ struct GeneratorOptions {
   UniformRange path_length_m{200.0, 350.0};  // planned path per robot, start leg included
   UniformRange speed_mps{0.3, 0.4};
   UniformRange depth_m{1.0, 3.0};
-  double min_altitude_m = 2.0;             // depth_m at most the shallowest seabed minus this
+  double min_altitude_m = 2.0;  // depth_m at most the shallowest seabed minus this
+  // ...and at least the deepest seabed minus this (the DVL loses bottom lock above 10 m, and
+  // dead reckoning without it drifts tens of metres).
+  double max_altitude_m = 8.0;
   UniformRange sonar_tilt_deg{5.0, 10.0};  // 5 deg at 3 m altitude or less, 10 at 10 m or more
   UniformRange start_time_s{0.0, 120.0};
   double path_clearance_m = 3.0;    // planned path to any object footprint
