@@ -686,6 +686,7 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   o.optimize_period_s = 0.0;
   o.min_teammate_loops = 1;  // one loop verifies here (the evidence gate has its own test)
   o.min_distinct_keyframes = 1;
+  o.place_chained_teammates = true;  // the chained placement under test
   OptimizerStage stage(o);
   msgs::KeyframeTrajectory traj;
   for (int k = 0; k < 5; ++k) {

@@ -1188,7 +1188,9 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     // map-to-map guess alone (object-graph matching) can be wrong where structures repeat.
     std::set<int> verified;
     for (const auto& l : problem.loops) verified.insert(l.teammate_robot);
-    for (const auto& [robot, T] : chained) verified.insert(robot);
+    if (options_.place_chained_teammates) {
+      for (const auto& [robot, T] : chained) verified.insert(robot);
+    }
     for (auto it = placed.begin(); it != placed.end();) {
       it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
     }

@@ -525,6 +525,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
         {.doc = "a teammate is placed only with at least this many accepted loops", .min = 0});
     spec.Param("min_distinct_keyframes", &o_.min_distinct_keyframes,
                {.doc = "... naming at least this many distinct keyframes of each robot", .min = 0});
+    spec.Param("place_chained_teammates", &o_.place_chained_teammates,
+               {.doc = "place a teammate without own verified loops through a teammate's "
+                       "shared estimate"});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

@@ -355,6 +355,12 @@ struct OptimizerStageOptions {
   // Place teammates in the estimate by the map-to-map guess alone, before any loop with them
   // is accepted (false: only teammates with accepted loops are placed).
   bool place_unverified_teammates = false;
+  // Place a teammate that the own loops do not verify through a teammate's shared estimate
+  // (T_own_s * T_s_robot). Off: a shared estimate only seeds the guess (scan requests, the
+  // PGO's initial placement) and the robot is placed once the own loops with it pass the
+  // evidence rules below; a teammate whose own map is wrong (a dead DVL) then cannot carry
+  // its error into every robot's estimate.
+  bool place_chained_teammates = false;
   int max_teammate_keyframes = 20000;
   // The own trajectory enters the two-step PGO as a chain of its relative poses with these
   // sigmas per keyframe step. The reference's 0.1 m / 0.01 rad let true but imprecise loops
@@ -401,8 +407,9 @@ class OptimizerStage {
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
   void OnKeyframePoses(const msgs::KeyframePoses& poses);
   // A teammate's loop-verified map-to-map estimates. A robot the own matching did not place
-  // (or placed without accepted loops) is placed through a teammate s with accepted loops:
-  // T_own_robot = T_own_s * T_s_robot, and counts as verified.
+  // (or placed without accepted loops) gets the guess T_own_robot = T_own_s * T_s_robot
+  // through a teammate s with verified loops; it is placed on that alone only with
+  // place_chained_teammates.
   void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);
   void Forget(int robot);
   // candidates: the filter's set after this step (accepted ones flagged).
