@@ -217,10 +217,12 @@ bool Ambiguous(const icp::Cloud2& source, icp::IcpTarget& target, const Registra
       seeds.push_back(Compose(best, about));
     }
   }
-  const double needed = o.ambiguity_ratio * result->icp.overlap_ratio;
+  const double d = o.ambiguity_overlap_distance_m;
+  const double needed = o.ambiguity_ratio * icp::OverlapRatio(source, target.tree(), best, d);
   for (const Pose2& seed : seeds) {
-    const icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
+    icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
     if (!r.valid) continue;
+    r.overlap_ratio = icp::OverlapRatio(source, target.tree(), r.T_target_source, d);
     const bool distinct =
         std::hypot(r.T_target_source.x_m - best.x_m, r.T_target_source.y_m - best.y_m) >
             o.ambiguity_distinct_m ||

@@ -130,6 +130,10 @@ struct RegistrationOptions {
   // of piles matches itself turned by 90 deg, any grid by 180 deg).
   std::vector<double> ambiguity_turns_deg{90.0, 180.0, 270.0};
   double ambiguity_ratio = 0.9;
+  // Overlaps compared by the test are counted within this distance (not the ICP's 0.5 m): two
+  // robots that see a pile row from opposite sides image opposite faces, a pile diameter
+  // apart, so the true pose scores lower than the row turned by 180 deg at 0.5 m.
+  double ambiguity_overlap_distance_m = 1.0;
   double ambiguity_distinct_m = 1.0;
   double ambiguity_distinct_rad = 0.0873;  // 5 deg
 };
@@ -153,7 +157,8 @@ struct RegistrationResult {
   icp::IcpResult icp;
   int target_points = 0;
   int target_keyframes = 0;
-  // Ambiguity test (accepted ICP answers only): the best overlap among the re-alignments that
+  // Ambiguity test (accepted ICP answers only): the best overlap (at
+  // ambiguity_overlap_distance_m) among the re-alignments that
   // ended distinct from the answer (0: none), and where it ended.
   double runner_up_overlap = 0.0;
   Pose2 runner_up_T;
