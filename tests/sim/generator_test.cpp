@@ -138,7 +138,9 @@ TEST(Generator, Seeds1To40LoadKeepApartAndKeepClear) {
       // Within the style's 1-3 m, deeper only where the bed is deeper than 3 + 8 m (the DVL
       // keeps bottom lock within 10 m).
       EXPECT_GE(robot.depth_m, 1.0);
-      if (robot.depth_m > 3.0) EXPECT_LE(max_altitude, 8.05) << robot.name;
+      if (robot.depth_m > 3.0) {
+        EXPECT_LE(max_altitude, 8.05) << robot.name;
+      }
       EXPECT_LE(max_altitude, 9.5) << robot.name;
       EXPECT_GE(altitude, 2.0) << robot.name;
       EXPECT_GE(robot.start_time_s, 0.0);
