@@ -34,20 +34,17 @@
 #include "draco/recording/recording.hpp"
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
+#include "process.hpp"
 #include "team_setup.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 using draco::fleet_app::RobotSetup;
+using draco::fleet_app::SelfDir;
+using draco::fleet_app::Spawn;
 
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop = true; }
-
-fs::path SelfDir() {
-  std::error_code ec;
-  const auto p = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path(".") : p.parent_path();
-}
 
 struct Options {
   std::string mission;
@@ -109,26 +106,6 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   }
   std::printf("draco-fleet: in-process team done in %.1f s\n", result.stats.wall_s);
   return 0;
-}
-
-pid_t Spawn(const std::vector<std::string>& args, const std::string& log_path) {
-  const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-  if (pid == 0) {
-    const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-      ::close(fd);
-    }
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    ::execv(argv[0], argv.data());
-    std::fprintf(stderr, "draco-fleet: cannot run %s: %s\n", argv[0], std::strerror(errno));
-    ::_exit(127);
-  }
-  return pid;
 }
 
 // One daemon per robot over DDS; optionally kills one mid-mission and restarts it.

@@ -10,16 +10,11 @@
 //   draco-worlds --seeds 101-130 --out runs/worlds
 //   draco-worlds --seeds 1-3 --out runs/worlds-smoke --robots 3 --duration-s 300
 //   draco-worlds --mission runs/missions/marina --out runs/worlds   # a recorded mission as a row
-#include <fcntl.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -31,38 +26,13 @@
 #include "draco/graph/executor.hpp"
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
+#include "process.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 
-fs::path SelfDir() {
-  std::error_code ec;
-  const auto p = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path(".") : p.parent_path();
-}
-
-// Runs args[0] with its output appended to log_path; returns the exit code (-1: no exit).
-int Run(const std::vector<std::string>& args, const std::string& log_path) {
-  const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
-  if (pid == 0) {
-    const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd >= 0) {
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-      ::close(fd);
-    }
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    ::execv(argv[0], argv.data());
-    std::fprintf(stderr, "draco-worlds: cannot run %s: %s\n", argv[0], std::strerror(errno));
-    ::_exit(127);
-  }
-  int status = 0;
-  if (::waitpid(pid, &status, 0) < 0) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using draco::fleet_app::RunAndWait;
+using draco::fleet_app::SelfDir;
 
 std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
   std::vector<std::uint64_t> out;
@@ -327,7 +297,7 @@ int main(int argc, char** argv) {
                                      "--out", scenario};
         if (!style.empty()) gen.insert(gen.end(), {"--style", style});
         if (robots > 0) gen.insert(gen.end(), {"--robots", std::to_string(robots)});
-        if (Run(gen, log) != 0) w.status = "generate failed";
+        if (RunAndWait(gen, log) != 0) w.status = "generate failed";
         periodic = ReadKeyValues(dir / "scenario" / "scenario.txt")["periodic"];
         if (periodic.empty()) periodic = "-";
         mission_dir = (dir / "mission").string();
@@ -337,7 +307,7 @@ int main(int argc, char** argv) {
           std::vector<std::string> args{sim, scenario + "/mission.yaml", "--out", mission_dir,
                                         "--no-pictures"};
           if (duration_s > 0) args.insert(args.end(), {"--duration-s", std::to_string(duration_s)});
-          if (Run(args, log) != 0) w.status = "simulation failed";
+          if (RunAndWait(args, log) != 0) w.status = "simulation failed";
         }
       }
       const std::string run = (dir / "run").string();
@@ -346,7 +316,7 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
         std::vector<std::string> args{fleet, mission_dir, "--mode", "inproc", "--out", run};
         for (const auto& o : overrides) args.insert(args.end(), {"--set", o});
-        if (Run(args, log) != 0) w.status = "team run failed";
+        if (RunAndWait(args, log) != 0) w.status = "team run failed";
       }
       if (w.status == "ok") {
         w = Evaluate(job.name, run + "/inproc", mission_dir, periodic, &pairs_csv);

@@ -678,6 +678,22 @@ TEST(ObjectMapperStage, AppendsTheLocalSlamLandmarksSeenOften) {
   EXPECT_GT(out.object_map.objects.size(), landmarks.size());  // the clusters are still there
 }
 
+// The own robot of an OptimizerStage test: n keyframes 2 m apart along x, one point each.
+msgs::KeyframeTrajectory OwnStraightLine(OptimizerStage* stage, int n) {
+  msgs::KeyframeTrajectory traj;
+  for (int k = 0; k < n; ++k) {
+    msgs::Keyframe kf;
+    kf.index = k;
+    kf.time_s = k;
+    kf.T_odom_body = {2.0 * k, 0.0, 0.0};
+    kf.points_body = {{1.0, 0.0}};
+    stage->OnKeyframe(kf);
+    traj.keyframes.push_back({k, double(k), kf.T_odom_body});
+  }
+  stage->OnTrajectory(traj);
+  return traj;
+}
+
 TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   // Own robot 0 has an accepted loop with robot 1 and no match with robot 2; robot 1 shares
   // its loop-verified T_1_2. Robot 2 is placed at T_0_1 * T_1_2 and counts as verified.
@@ -688,17 +704,7 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   o.min_distinct_keyframes = 1;
   o.place_chained_teammates = true;  // the chained placement under test
   OptimizerStage stage(o);
-  msgs::KeyframeTrajectory traj;
-  for (int k = 0; k < 5; ++k) {
-    msgs::Keyframe kf;
-    kf.index = k;
-    kf.time_s = k;
-    kf.T_odom_body = {2.0 * k, 0.0, 0.0};
-    kf.points_body = {{1.0, 0.0}};
-    stage.OnKeyframe(kf);
-    traj.keyframes.push_back({k, double(k), kf.T_odom_body});
-  }
-  stage.OnTrajectory(traj);
+  const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 5);
   for (int robot : {1, 2}) {
     msgs::KeyframePoses p;
     p.header.robot_id = robot;
@@ -758,17 +764,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   OptimizerStage stage(o);
-  msgs::KeyframeTrajectory traj;
-  for (int k = 0; k < 8; ++k) {
-    msgs::Keyframe kf;
-    kf.index = k;
-    kf.time_s = k;
-    kf.T_odom_body = {2.0 * k, 0.0, 0.0};
-    kf.points_body = {{1.0, 0.0}};
-    stage.OnKeyframe(kf);
-    traj.keyframes.push_back({k, double(k), kf.T_odom_body});
-  }
-  stage.OnTrajectory(traj);
+  const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
   msgs::KeyframePoses p;
   p.header.robot_id = 1;
   p.header.incarnation = 1;

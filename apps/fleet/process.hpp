@@ -1,0 +1,23 @@
+// Child processes of the apps that run other apps (draco-fleet starts draco-robot daemons,
+// draco-worlds starts draco-sim and draco-fleet).
+#pragma once
+
+#include <sys/types.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace draco::fleet_app {
+
+// The folder of the running executable (its siblings are the other apps of the build).
+std::filesystem::path SelfDir();
+
+// Starts args[0] with args, its stdout and stderr appended to log_path; returns its pid.
+// Throws std::runtime_error when fork fails; a child that cannot exec exits with 127.
+pid_t Spawn(const std::vector<std::string>& args, const std::string& log_path);
+
+// Spawn, then waits: the exit code, or -1 when the child did not exit normally.
+int RunAndWait(const std::vector<std::string>& args, const std::string& log_path);
+
+}  // namespace draco::fleet_app
