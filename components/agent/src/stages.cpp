@@ -927,6 +927,13 @@ void OptimizerStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
   held = std::move(kept);
 }
 
+void OptimizerStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
+                                         const msgs::ObjectMap& map) {
+  if (header.robot_id == options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return;
+  teammate_objects_[header.robot_id] = map;
+}
+
 std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const {
   std::vector<msgs::Heartbeat::Transform> out;
   for (const int robot : loop_verified_) {
@@ -943,6 +950,7 @@ void OptimizerStage::Forget(int robot) {
   poses_.Forget(robot);
   graph_changed_.erase(robot);
   match_counts_.erase(robot);
+  teammate_objects_.erase(robot);
   estimate_.trajectories.erase(robot);
   estimate_.T_own_teammate.erase(robot);
   own_graph_changed_ = true;  // the estimate is recomputed without it
@@ -1014,6 +1022,40 @@ bool OptimizerStage::Contested(int robot,
   return false;
 }
 
+std::optional<objects::MapAgreement> OptimizerStage::MapCheck(
+    int robot, const std::vector<msgs::InterRobotLoop>& candidates,
+    const objects::Coverage& own_coverage) const {
+  const auto map = teammate_objects_.find(robot);
+  const auto* held = poses_.Find(robot);
+  if (map == teammate_objects_.end() || map->second.objects.empty() ||
+      own_objects_.objects.empty() || held == nullptr) {
+    return std::nullopt;
+  }
+  // T_own_teammate from the accepted loops: the teammate's keyframes (its map frame) against
+  // where the loops put them from the own keyframes.
+  std::vector<Pose2> local, placed;
+  for (const auto& l : candidates) {
+    if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot != robot) continue;
+    const auto own = own_.entries().find(l.own_keyframe);
+    if (own == own_.entries().end() || !own->second.has_pose || l.teammate_keyframe < 0 ||
+        l.teammate_keyframe >= static_cast<int>(held->keyframes.size()) ||
+        !held->known[static_cast<std::size_t>(l.teammate_keyframe)]) {
+      continue;
+    }
+    local.push_back(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf);
+    placed.push_back(reg::Compose(own->second.T_map_kf, l.T_ownkf_teammatekf));
+  }
+  const auto T = AlignSe2(local, placed);
+  if (!T) return std::nullopt;
+  std::vector<Pose2> mate_poses;
+  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+    if (held->known[k]) mate_poses.push_back(held->keyframes[k].T_map_kf);
+  }
+  const objects::Coverage mate_coverage(mate_poses, options_.map_coverage);
+  return objects::CompareObjectMaps(own_objects_, map->second, *T, own_coverage, mate_coverage,
+                                    options_.map_margin_m);
+}
+
 void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
                           const msgs::MapMatches& matches, msgs::TeamStepStats* st) {
   WallTimer wall(st);
@@ -1053,12 +1095,34 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       e.own_kfs.insert(l.own_keyframe);
       e.mate_kfs.insert(l.teammate_keyframe);
     }
+    estimate_.map_agreement.clear();
+    estimate_.contradicted.clear();
+    std::optional<objects::Coverage> own_coverage;  // built when a teammate needs it
     for (const auto& [robot, e] : evidence) {
-      if (e.loops >= options_.min_teammate_loops &&
-          static_cast<int>(e.own_kfs.size()) >= options_.min_distinct_keyframes &&
-          static_cast<int>(e.mate_kfs.size()) >= options_.min_distinct_keyframes &&
-          !Contested(robot, candidates))
-        loop_verified.insert(robot);
+      if (e.loops < options_.min_teammate_loops ||
+          static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
+          static_cast<int>(e.mate_kfs.size()) < options_.min_distinct_keyframes ||
+          Contested(robot, candidates)) {
+        continue;
+      }
+      if (options_.max_map_miss_fraction < 1.0) {
+        if (!own_coverage) {
+          std::vector<Pose2> own_poses;
+          for (const auto& [k, entry] : own_.entries()) {
+            if (entry.has_pose) own_poses.push_back(entry.T_map_kf);
+          }
+          own_coverage.emplace(own_poses, options_.map_coverage);
+        }
+        if (const auto a = MapCheck(robot, candidates, *own_coverage)) {
+          estimate_.map_agreement[robot] = *a;
+          if (a->Misses() >= options_.min_map_misses &&
+              a->MissFraction() > options_.max_map_miss_fraction) {
+            estimate_.contradicted.insert(robot);
+            continue;
+          }
+        }
+      }
+      loop_verified.insert(robot);
     }
   }
   const auto direct = [&](int robot) -> std::optional<Pose2> {
@@ -1197,6 +1261,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   }
   TeamEstimate next;
   next.time_s = now_s;
+  next.map_agreement = std::move(estimate_.map_agreement);
+  next.contradicted = std::move(estimate_.contradicted);
   // Trajectories with real keyframes only; map-to-map estimates.
   for (const auto& [robot, poses] : placed) {
     auto& traj = next.trajectories[robot];

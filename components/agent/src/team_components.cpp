@@ -45,6 +45,7 @@ enum Rank : int {
   kFeedback = 0,
   kOwnKeyframe,
   kOwnTrajectory,
+  kOwnObjects,
   kEvent,
   kObjectMap,
   kPoses,
@@ -499,6 +500,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
         spec.Input<msgs::TeammateEvent>("teammate_events", FromLink("teammate restarts (link)"));
     transforms_in_ = spec.Input<msgs::TeammateTransforms>(
         "teammate_map_transforms", FromLink("teammates' verified map-to-map estimates (link)"));
+    objects_ = spec.Input<msgs::OwnObjectMap>(
+        "objects", Absorbed("own object map (map-level check of a placement)", 64));
+    maps_ = spec.Input<msgs::TeammateObjectMap>(
+        "teammate_object_maps", FromLink("teammates' object maps (link; map-level check)"));
     transforms_out_ = spec.Output<msgs::MapTransforms>(
         "map_transforms", "own verified map-to-map estimates to share, when they change");
     RobotIdParam(spec, &o_.robot_id);
@@ -533,6 +538,22 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "transform with this fraction of the accepted loops' distinct keyframes "
                        "(0: off)",
                 .min = 0.0});
+    spec.Param("max_map_miss_fraction", &o_.max_map_miss_fraction,
+               {.doc = "no placement while more than this fraction of the objects each robot "
+                       "should have seen of the other's map (under the loops' transform) is "
+                       "missing (>= 1: off)",
+                .min = 0.0});
+    spec.Param("min_map_misses", &o_.min_map_misses,
+               {.doc = "... and at least this many are missing", .min = 1});
+    spec.Param("map_margin_m", &o_.map_margin_m,
+               {.doc = "an object meets the other map's when its rectangle grown by this "
+                       "margin meets one of them",
+                .unit = "m",
+                .min = 0.0});
+    spec.Param("map_coverage_range_m", &o_.map_coverage.range_m,
+               {.doc = "an object is expected where it lies within this range of a keyframe",
+                .unit = "m",
+                .min = 0.0});
     spec.Param("chain_from_factors", &o_.two_step.teammate_chain_from_factors,
                {.doc = "global step: teammate chain with its own information, not the "
                        "reference's sigmas"});
@@ -547,8 +568,13 @@ class TwoStepOptimizerComponent final : public graph::Component {
   Status Process(Context&) override {
     in_.Add(keyframe_, kOwnKeyframe, [this](const auto& k) { stage_->OnKeyframe(k); });
     in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    in_.Add(objects_, kOwnObjects,
+            [this](const msgs::OwnObjectMap& m) { stage_->OnOwnObjectMap(m.map); });
     in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
       if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
+    });
+    in_.Add(maps_, kObjectMap, [this](const msgs::TeammateObjectMap& m) {
+      stage_->OnTeammateObjectMap(m.header, m.map);
     });
     in_.Add(poses_, kPoses, [this](const auto& p) { stage_->OnKeyframePoses(p); });
     in_.Add(transforms_in_, kTransforms,
@@ -616,8 +642,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
           it->second.yaw_rad == T.yaw_rad)
         continue;
       placed_[id] = T;
-      std::snprintf(line, sizeof line, "%.3f,%s,1,%.4f,%.4f,%.6f\n", est.time_s, Name(id).c_str(),
-                    T.x_m, T.y_m, T.yaw_rad);
+      const auto [expected, misses] = Agreement(id);
+      std::snprintf(line, sizeof line, "%.3f,%s,1,%.4f,%.4f,%.6f,%d,%d\n", est.time_s,
+                    Name(id).c_str(), T.x_m, T.y_m, T.yaw_rad, expected, misses);
       placements_ += line;
     }
     for (auto it = placed_.begin(); it != placed_.end();) {
@@ -625,10 +652,19 @@ class TwoStepOptimizerComponent final : public graph::Component {
         ++it;
         continue;
       }
-      std::snprintf(line, sizeof line, "%.3f,%s,0,0,0,0\n", est.time_s, Name(it->first).c_str());
+      const auto [expected, misses] = Agreement(it->first);
+      std::snprintf(line, sizeof line, "%.3f,%s,0,0,0,0,%d,%d\n", est.time_s,
+                    Name(it->first).c_str(), expected, misses);
       placements_ += line;
       it = placed_.erase(it);
     }
+  }
+
+  // The map-level check of this step for a teammate: objects expected, missing (-1: none).
+  std::pair<int, int> Agreement(int id) const {
+    const auto& m = stage_->estimate().map_agreement;
+    const auto it = m.find(id);
+    return it == m.end() ? std::pair{-1, -1} : std::pair{it->second.Expected(), it->second.Misses()};
   }
 
   std::string Name(int id) const {
@@ -643,12 +679,14 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::unique_ptr<OptimizerStage> stage_;
   std::vector<msgs::TeamStepStats> steps_;
   std::map<int, msgs::Pose2> placed_;  // teammates placed after the last step
-  std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad\n";
+  std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad,map_expected,map_misses\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;
   graph::In<msgs::KeyframeTrajectory> trajectory_;
   graph::In<msgs::TeammateTransforms> transforms_in_;
+  graph::In<msgs::OwnObjectMap> objects_;
+  graph::In<msgs::TeammateObjectMap> maps_;
   graph::Out<msgs::MapTransforms> transforms_out_;
   std::vector<msgs::Heartbeat::Transform> shared_;  // last published
   graph::In<msgs::KeyframePoses> poses_;

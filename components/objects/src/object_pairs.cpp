@@ -79,4 +79,42 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
   return pairs;
 }
 
+MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                               const Pose2& T_a_b, const Coverage& coverage_a,
+                               const Coverage& coverage_b, double margin_m) {
+  MapAgreement out;
+  const Pose2 T_b_a = [&] {
+    const double c = std::cos(T_a_b.yaw_rad), s = std::sin(T_a_b.yaw_rad);
+    return Pose2{-(c * T_a_b.x_m + s * T_a_b.y_m), -(-s * T_a_b.x_m + c * T_a_b.y_m),
+                 -T_a_b.yaw_rad};
+  }();
+  std::vector<std::array<msgs::Point2, 4>> rect_a, grown_b;  // both in a's frame
+  for (const auto& oa : a.objects) rect_a.push_back(Corners(oa, Pose2{}, 0.0));
+  for (const auto& ob : b.objects) grown_b.push_back(Corners(ob, T_a_b, margin_m));
+  const auto meets = [&](std::size_t i, std::size_t k) {
+    return !a.objects[i].landmark && !b.objects[k].landmark && Intersect(rect_a[i], grown_b[k]);
+  };
+  for (std::size_t k = 0; k < b.objects.size(); ++k) {
+    if (b.objects[k].landmark || !coverage_a.Observed(Apply(T_a_b, b.objects[k].center))) continue;
+    ++out.b_expected;
+    for (std::size_t i = 0; i < a.objects.size(); ++i) {
+      if (meets(i, k)) {
+        ++out.b_met;
+        break;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < a.objects.size(); ++i) {
+    if (a.objects[i].landmark || !coverage_b.Observed(Apply(T_b_a, a.objects[i].center))) continue;
+    ++out.a_expected;
+    for (std::size_t k = 0; k < b.objects.size(); ++k) {
+      if (meets(i, k)) {
+        ++out.a_met;
+        break;
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace draco::objects

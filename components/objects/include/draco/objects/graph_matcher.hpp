@@ -170,6 +170,24 @@ msgs::ObjectMatch MatchObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMa
 int CountMisses(const msgs::ObjectMap& from, const msgs::ObjectMap& to, const Pose2& T_to_from,
                 const Coverage& to_coverage, double distance_m);
 
+// Map-level agreement of a placement (negative evidence over whole maps): under T_a_b, each
+// object of b whose centre falls where a's sonar looked should meet an object of a, and each
+// object of a inside b's observed area an object of b. Meeting: b's rectangle grown by
+// margin_m on every side intersects a's. A grid turned 180 deg or shifted one spacing lines
+// its piles up again, but the quay, the hull or the open water beside it do not.
+struct MapAgreement {
+  int b_expected = 0, b_met = 0;  // b's objects placed inside a's observed area; met
+  int a_expected = 0, a_met = 0;  // a's objects inside b's observed area; met
+  int Expected() const { return a_expected + b_expected; }
+  int Misses() const { return Expected() - a_met - b_met; }
+  double MissFraction() const {
+    return Expected() > 0 ? static_cast<double>(Misses()) / Expected() : 0.0;
+  }
+};
+MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                               const Pose2& T_a_b, const Coverage& coverage_a,
+                               const Coverage& coverage_b, double margin_m);
+
 // Object pairs of a and b when b is placed by T_a_b: each object of b with the own object
 // (nearest centre) whose rectangle meets its rectangle, both grown by margin_m. Rectangles,
 // not centres: the two robots see the same pier from different sides, so their clusters'
