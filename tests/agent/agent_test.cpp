@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <set>
@@ -836,6 +837,93 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   stage.Step(30.0, withdrawn, matches, &st);
   EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
   EXPECT_TRUE(stage.SharedTransforms().empty());
+}
+
+TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
+  // Five independent true loops place robot 1 (as above) while both object maps agree under
+  // them. When the teammate's map holds three more objects where the own sonar looked and saw
+  // nothing (a structure turned onto open water), the placement is withdrawn; with the check
+  // off it stands.
+  const auto run = [](double max_map_miss_fraction, bool contradict) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.max_map_miss_fraction = max_map_miss_fraction;
+    auto stage = std::make_unique<OptimizerStage>(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(stage.get(), 8);  // x 0..14, facing +x
+    msgs::KeyframePoses p;
+    p.header.robot_id = 1;
+    p.header.incarnation = 1;
+    p.full = true;
+    for (int k = 0; k < 8; ++k) p.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
+    stage->OnKeyframePoses(p);
+    const Pose2 T_0_1{5.0, 1.0, 0.3};
+    msgs::MapMatches matches;
+    auto& g = matches.guesses[1];
+    g.robot_id = 1;
+    g.matched = true;
+    g.match.T_a_b = T_0_1;
+    g.match_count = 1;
+    std::vector<msgs::InterRobotLoop> loops;
+    const std::pair<int, int> pairs[] = {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+    for (const auto& [own_k, mate_k] : pairs) {
+      msgs::InterRobotLoop l;
+      l.id = loops.size() + 1;
+      l.own_robot = 0;
+      l.own_keyframe = own_k;
+      l.teammate_robot = 1;
+      l.teammate_keyframe = mate_k;
+      l.T_ownkf_teammatekf = reg::Between(traj.keyframes[own_k].T_map_kf,
+                                          reg::Compose(T_0_1, p.poses[mate_k].T_map_kf));
+      l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+      l.flags = msgs::kLoopAccepted;
+      loops.push_back(l);
+    }
+    // Objects in the own map frame, in front of the own keyframes; the teammate's map holds
+    // the same ones in its frame, and with `contradict` three more on the own empty water.
+    const msgs::Point2 shared[] = {{6.0, 3.0}, {10.0, -3.0}, {16.0, 2.0}, {20.0, -2.0}};
+    const msgs::Point2 extra[] = {{25.0, 5.0}, {28.0, -5.0}, {31.0, 0.0}};
+    msgs::ObjectMap own, mate;
+    const Pose2 T_1_0 = reg::Inverse(T_0_1);
+    const auto object = [](std::uint32_t id, const msgs::Point2& c) {
+      msgs::Object ob;
+      ob.id = id;
+      ob.center = ob.rect_center = c;
+      ob.length_m = ob.breadth_m = 1.0;
+      return ob;
+    };
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      own.objects.push_back(object(i, shared[i]));
+      mate.objects.push_back(object(i, reg::Apply(T_1_0, shared[i])));
+    }
+    if (contradict) {
+      for (std::uint32_t i = 0; i < 3; ++i) {
+        mate.objects.push_back(object(10 + i, reg::Apply(T_1_0, extra[i])));
+      }
+    }
+    stage->OnOwnObjectMap(own);
+    stage->OnTeammateObjectMap(p.header, mate);
+    msgs::TeamStepStats st;
+    stage->Step(10.0, loops, matches, &st);
+    return stage;
+  };
+  const auto agree = run(0.1, false);
+  ASSERT_EQ(agree->estimate().trajectories.count(1), 1u);
+  ASSERT_EQ(agree->estimate().map_agreement.count(1), 1u);
+  EXPECT_EQ(agree->estimate().map_agreement.at(1).b_expected, 4);
+  EXPECT_EQ(agree->estimate().map_agreement.at(1).Misses(), 0);
+  EXPECT_TRUE(agree->estimate().contradicted.empty());
+
+  const auto contradicted = run(0.1, true);
+  EXPECT_EQ(contradicted->estimate().trajectories.count(1), 0u);
+  EXPECT_TRUE(contradicted->SharedTransforms().empty());
+  ASSERT_EQ(contradicted->estimate().contradicted.count(1), 1u);
+  EXPECT_EQ(contradicted->estimate().map_agreement.at(1).b_expected, 7);
+  EXPECT_EQ(contradicted->estimate().map_agreement.at(1).b_met, 4);
+
+  const auto off = run(1.0, true);
+  EXPECT_EQ(off->estimate().trajectories.count(1), 1u);
+  EXPECT_TRUE(off->estimate().map_agreement.empty());
 }
 
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {

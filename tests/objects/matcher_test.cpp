@@ -239,6 +239,46 @@ TEST(Matcher, CoverageAndMisses) {
   EXPECT_EQ(CountMisses(s.a, s.b, Inverse(T_shifted), s.cb, 3.0), 1);
 }
 
+TEST(Matcher, CompareObjectMapsCountsWhatEachRobotShouldHaveSeen) {
+  RowScene s = MakeRow(1);
+  for (auto* m : {&s.a, &s.b}) {
+    for (auto& o : m->objects) o.rect_center = o.center;  // View() moves the centres only
+  }
+  // At the truth: b's six piles (3..8) lie where a looked and meet a's; a's piles 3..8 lie
+  // where b looked (pile 2 at x = 20 does not) and meet b's.
+  const MapAgreement right = CompareObjectMaps(s.a, s.b, s.truth, s.ca, s.cb, 2.0);
+  EXPECT_EQ(right.b_expected, 6);
+  EXPECT_EQ(right.b_met, 6);
+  EXPECT_EQ(right.a_expected, 6);
+  EXPECT_EQ(right.a_met, 6);
+  EXPECT_EQ(right.Misses(), 0);
+  EXPECT_DOUBLE_EQ(right.MissFraction(), 0.0);
+  // One spacing off: b's piles land on a's 2..7; b's observed area now takes in a's piles 2..8,
+  // and pile 8 meets nothing of b.
+  const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};
+  const msgs::Pose2 T_shifted =
+      Compose(Inverse(msgs::Pose2{-5.0, 3.0, 0.3}), Compose({-10.0, 0.0, 0.0}, T_w_b));
+  const MapAgreement shifted = CompareObjectMaps(s.a, s.b, T_shifted, s.ca, s.cb, 2.0);
+  EXPECT_EQ(shifted.b_expected, 6);
+  EXPECT_EQ(shifted.b_met, 6);
+  EXPECT_EQ(shifted.a_expected, 7);
+  EXPECT_EQ(shifted.a_met, 6);
+  EXPECT_EQ(shifted.Misses(), 1);
+  EXPECT_NEAR(shifted.MissFraction(), 1.0 / 13.0, 1e-12);
+  // A landmark object is left out of the count.
+  msgs::Object mark;
+  mark.id = msgs::kLandmarkIdBit + 1;
+  mark.landmark = true;
+  mark.center = mark.rect_center = Transform(Inverse(T_w_b), {60.0, -5.0});
+  s.b.objects.push_back(mark);
+  const MapAgreement with_landmark = CompareObjectMaps(s.a, s.b, s.truth, s.ca, s.cb, 2.0);
+  EXPECT_EQ(with_landmark.b_expected, 6);
+  EXPECT_EQ(with_landmark.Misses(), 0);
+  // A margin as wide as the spacing meets the neighbours: the test needs margins below it.
+  const MapAgreement wide = CompareObjectMaps(s.a, s.b, T_shifted, s.ca, s.cb, 10.5);
+  EXPECT_EQ(wide.Misses(), 0);
+}
+
 TEST(Matcher, NegativeEvidenceRejectsRowShiftedByOneSpacing) {
   int wrong_without = 0, shifted_without = 0, right_with = 0, wrong_with = 0, shifted_with = 0,
       wrong_both = 0;
