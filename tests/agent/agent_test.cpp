@@ -909,21 +909,26 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   };
   const auto agree = run(0.1, false);
   ASSERT_EQ(agree->estimate().trajectories.count(1), 1u);
-  ASSERT_EQ(agree->estimate().map_agreement.count(1), 1u);
-  EXPECT_EQ(agree->estimate().map_agreement.at(1).b_expected, 4);
-  EXPECT_EQ(agree->estimate().map_agreement.at(1).Misses(), 0);
-  EXPECT_TRUE(agree->estimate().contradicted.empty());
+  ASSERT_EQ(agree->estimate().map_checks.count(1), 1u);
+  const MapCheck& fine = agree->estimate().map_checks.at(1);
+  EXPECT_EQ(fine.agreement.b_expected, 4);
+  EXPECT_EQ(fine.agreement.Misses(), 0);
+  EXPECT_FALSE(fine.contradicted);
+  EXPECT_NEAR(fine.T_own_teammate.x_m, 5.0, 1e-6);
+  EXPECT_NEAR(fine.T_own_teammate.yaw_rad, 0.3, 1e-6);
 
   const auto contradicted = run(0.1, true);
   EXPECT_EQ(contradicted->estimate().trajectories.count(1), 0u);
   EXPECT_TRUE(contradicted->SharedTransforms().empty());
-  ASSERT_EQ(contradicted->estimate().contradicted.count(1), 1u);
-  EXPECT_EQ(contradicted->estimate().map_agreement.at(1).b_expected, 7);
-  EXPECT_EQ(contradicted->estimate().map_agreement.at(1).b_met, 4);
+  ASSERT_EQ(contradicted->estimate().map_checks.count(1), 1u);
+  const MapCheck& bad = contradicted->estimate().map_checks.at(1);
+  EXPECT_TRUE(bad.contradicted);
+  EXPECT_EQ(bad.agreement.b_expected, 7);
+  EXPECT_EQ(bad.agreement.b_met, 4);
 
   const auto off = run(1.0, true);
   EXPECT_EQ(off->estimate().trajectories.count(1), 1u);
-  EXPECT_TRUE(off->estimate().map_agreement.empty());
+  EXPECT_TRUE(off->estimate().map_checks.empty());
 }
 
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {

@@ -1022,7 +1022,7 @@ bool OptimizerStage::Contested(int robot,
   return false;
 }
 
-std::optional<objects::MapAgreement> OptimizerStage::MapCheck(
+std::optional<MapCheck> OptimizerStage::CheckMaps(
     int robot, const std::vector<msgs::InterRobotLoop>& candidates,
     const objects::Coverage& own_coverage) const {
   const auto map = teammate_objects_.find(robot);
@@ -1052,8 +1052,13 @@ std::optional<objects::MapAgreement> OptimizerStage::MapCheck(
     if (held->known[k]) mate_poses.push_back(held->keyframes[k].T_map_kf);
   }
   const objects::Coverage mate_coverage(mate_poses, options_.map_coverage);
-  return objects::CompareObjectMaps(own_objects_, map->second, *T, own_coverage, mate_coverage,
-                                    options_.map_margin_m);
+  MapCheck out;
+  out.T_own_teammate = *T;
+  out.agreement = objects::CompareObjectMaps(own_objects_, map->second, *T, own_coverage,
+                                             mate_coverage, options_.map_margin_m);
+  out.contradicted = out.agreement.Misses() >= options_.min_map_misses &&
+                     out.agreement.MissFraction() > options_.max_map_miss_fraction;
+  return out;
 }
 
 void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
@@ -1095,8 +1100,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       e.own_kfs.insert(l.own_keyframe);
       e.mate_kfs.insert(l.teammate_keyframe);
     }
-    estimate_.map_agreement.clear();
-    estimate_.contradicted.clear();
+    estimate_.map_checks.clear();
     std::optional<objects::Coverage> own_coverage;  // built when a teammate needs it
     for (const auto& [robot, e] : evidence) {
       if (e.loops < options_.min_teammate_loops ||
@@ -1113,13 +1117,9 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
           }
           own_coverage.emplace(own_poses, options_.map_coverage);
         }
-        if (const auto a = MapCheck(robot, candidates, *own_coverage)) {
-          estimate_.map_agreement[robot] = *a;
-          if (a->Misses() >= options_.min_map_misses &&
-              a->MissFraction() > options_.max_map_miss_fraction) {
-            estimate_.contradicted.insert(robot);
-            continue;
-          }
+        if (const auto check = CheckMaps(robot, candidates, *own_coverage)) {
+          estimate_.map_checks[robot] = *check;
+          if (check->contradicted) continue;
         }
       }
       loop_verified.insert(robot);
@@ -1261,8 +1261,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   }
   TeamEstimate next;
   next.time_s = now_s;
-  next.map_agreement = std::move(estimate_.map_agreement);
-  next.contradicted = std::move(estimate_.contradicted);
+  next.map_checks = std::move(estimate_.map_checks);
   // Trajectories with real keyframes only; map-to-map estimates.
   for (const auto& [robot, poses] : placed) {
     auto& traj = next.trajectories[robot];

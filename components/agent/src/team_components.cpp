@@ -488,7 +488,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
         "loops, map-to-map guesses) at most every optimize_period_s when something changed: "
         "the team estimate in the own map frame. Writes <prefix>team.<robot>.tum per placed "
         "robot, <prefix>agent_steps.csv (the work of every stage per step) and "
-        "<prefix>placements.csv (each teammate's map-to-map estimate whenever it changes).");
+        "<prefix>placements.csv (each teammate's map-to-map estimate whenever it changes) and "
+        "<prefix>map_checks.csv (the object maps' agreement with a placement whenever it "
+        "changes).");
     loops_ = spec.Input<msgs::TeamLoops>(
         "loops", {.depth = 64, .doc = "loops from team.ConsistencyFilter (runs the step)"});
     keyframe_ = spec.Input<msgs::Keyframe>("keyframe", Absorbed("own keyframes"));
@@ -585,6 +587,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
       stage_->Step(l.stamp.Seconds(), l->candidates, l->matches, &st);
       steps_.push_back(st);
       LogPlacements();
+      LogMapChecks();
       auto shared = stage_->SharedTransforms();
       if (shared != shared_) {
         shared_ = shared;
@@ -622,6 +625,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
     }
     files.push_back({"agent_steps.csv", steps});
     files.push_back({"placements.csv", placements_});
+    files.push_back({"map_checks.csv", map_checks_});
     return WriteFiles(ctx, prefix_, files);
   }
 
@@ -662,9 +666,28 @@ class TwoStepOptimizerComponent final : public graph::Component {
 
   // The map-level check of this step for a teammate: objects expected, missing (-1: none).
   std::pair<int, int> Agreement(int id) const {
-    const auto& m = stage_->estimate().map_agreement;
+    const auto& m = stage_->estimate().map_checks;
     const auto it = m.find(id);
-    return it == m.end() ? std::pair{-1, -1} : std::pair{it->second.Expected(), it->second.Misses()};
+    return it == m.end() ? std::pair{-1, -1}
+                         : std::pair{it->second.agreement.Expected(), it->second.agreement.Misses()};
+  }
+
+  // A row per change of a teammate's map-level check (counts or verdict).
+  void LogMapChecks() {
+    const auto& est = stage_->estimate();
+    for (const auto& [id, c] : est.map_checks) {
+      const auto& a = c.agreement;
+      const auto key = std::make_tuple(a.b_expected, a.b_met, a.a_expected, a.a_met, c.contradicted);
+      const auto it = checked_.find(id);
+      if (it != checked_.end() && it->second == key) continue;
+      checked_[id] = key;
+      char line[240];
+      std::snprintf(line, sizeof line, "%.3f,%s,%.4f,%.4f,%.6f,%d,%d,%d,%d,%d\n", est.time_s,
+                    Name(id).c_str(), c.T_own_teammate.x_m, c.T_own_teammate.y_m,
+                    c.T_own_teammate.yaw_rad, a.b_expected, a.b_met, a.a_expected, a.a_met,
+                    c.contradicted ? 1 : 0);
+      map_checks_ += line;
+    }
   }
 
   std::string Name(int id) const {
@@ -680,6 +703,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::vector<msgs::TeamStepStats> steps_;
   std::map<int, msgs::Pose2> placed_;  // teammates placed after the last step
   std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad,map_expected,map_misses\n";
+  std::map<int, std::tuple<int, int, int, int, bool>> checked_;  // last logged map check
+  std::string map_checks_ =
+      "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_met,"
+      "own_objects_expected,own_objects_met,contradicted\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;

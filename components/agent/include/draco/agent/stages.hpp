@@ -404,17 +404,21 @@ struct OptimizerStageOptions {
   objects::CoverageOptions map_coverage;  // 20 m, +-65 deg
 };
 
+// The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
+struct MapCheck {
+  msgs::Pose2 T_own_teammate;  // the transform the accepted loops imply
+  objects::MapAgreement agreement;
+  bool contradicted = false;  // the teammate is not placed
+};
+
 struct TeamEstimate {
   double time_s = 0.0;
   // Every robot's keyframe trajectory in the own map frame (own id included); teammates
   // without a map-to-map guess are absent.
   std::map<int, std::vector<msgs::KeyframePose>> trajectories;
   std::map<int, msgs::Pose2> T_own_teammate;  // current map-to-map estimates
-  // The object maps' agreement for each teammate whose loops pass the evidence rules, under
-  // the transform the loops imply (OptimizerStageOptions::max_map_miss_fraction), and those
-  // it contradicts (not placed).
-  std::map<int, objects::MapAgreement> map_agreement;
-  std::set<int> contradicted;
+  // The map-level check of each teammate whose loops pass the evidence rules, this step.
+  std::map<int, MapCheck> map_checks;
 };
 
 class OptimizerStage {
@@ -446,9 +450,9 @@ class OptimizerStage {
   bool Contested(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   // The object maps' agreement under the transform the accepted loops with `robot` imply;
   // nullopt when there is nothing to compare (no map, no loop with known poses).
-  std::optional<objects::MapAgreement> MapCheck(
-      int robot, const std::vector<msgs::InterRobotLoop>& candidates,
-      const objects::Coverage& own_coverage) const;
+  std::optional<MapCheck> CheckMaps(int robot,
+                                    const std::vector<msgs::InterRobotLoop>& candidates,
+                                    const objects::Coverage& own_coverage) const;
 
   OptimizerStageOptions options_;
   OwnKeyframes own_;
