@@ -840,17 +840,32 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
 }
 
 TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
-  // Five independent true loops place robot 1 (as above) while both object maps agree under
-  // them. When the teammate's map holds three more objects where the own sonar looked and saw
-  // nothing (a structure turned onto open water), the placement is withdrawn; with the check
-  // off it stands.
+  // Five independent true loops place robot 1 (as above) while the teammate's objects lie on
+  // own sonar returns under them. When the teammate's map holds three more objects where the
+  // own sonar looked and saw nothing (a structure turned onto open water), the teammate is not
+  // placed; with the check off it is.
   const auto run = [](double max_map_miss_fraction, bool contradict) {
     OptimizerStageOptions o;
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.max_map_miss_fraction = max_map_miss_fraction;
     auto stage = std::make_unique<OptimizerStage>(o);
-    const msgs::KeyframeTrajectory traj = OwnStraightLine(stage.get(), 8);  // x 0..14, facing +x
+    // Objects in the own map frame, in front of the own keyframes (x 0..14, facing +x), each
+    // keyframe returning a point on each of them; the teammate's map holds the same ones in
+    // its frame, and with `contradict` three more on the own empty water.
+    const msgs::Point2 shared[] = {{6.0, 3.0}, {10.0, -3.0}, {16.0, 2.0}, {20.0, -2.0}};
+    const msgs::Point2 extra[] = {{25.0, 5.0}, {28.0, -5.0}, {31.0, 0.0}};
+    msgs::KeyframeTrajectory traj;
+    for (int k = 0; k < 8; ++k) {
+      msgs::Keyframe kf;
+      kf.index = k;
+      kf.time_s = k;
+      kf.T_odom_body = {2.0 * k, 0.0, 0.0};
+      for (const auto& c : shared) kf.points_body.push_back({c.x_m - 2.0 * k, c.y_m});
+      stage->OnKeyframe(kf);
+      traj.keyframes.push_back({k, double(k), kf.T_odom_body});
+    }
+    stage->OnTrajectory(traj);
     msgs::KeyframePoses p;
     p.header.robot_id = 1;
     p.header.incarnation = 1;
@@ -879,10 +894,6 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
       l.flags = msgs::kLoopAccepted;
       loops.push_back(l);
     }
-    // Objects in the own map frame, in front of the own keyframes; the teammate's map holds
-    // the same ones in its frame, and with `contradict` three more on the own empty water.
-    const msgs::Point2 shared[] = {{6.0, 3.0}, {10.0, -3.0}, {16.0, 2.0}, {20.0, -2.0}};
-    const msgs::Point2 extra[] = {{25.0, 5.0}, {28.0, -5.0}, {31.0, 0.0}};
     msgs::ObjectMap own, mate;
     const Pose2 T_1_0 = reg::Inverse(T_0_1);
     const auto object = [](std::uint32_t id, const msgs::Point2& c) {
@@ -911,8 +922,10 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   ASSERT_EQ(agree->estimate().trajectories.count(1), 1u);
   ASSERT_EQ(agree->estimate().map_checks.count(1), 1u);
   const MapCheck& fine = agree->estimate().map_checks.at(1);
-  EXPECT_EQ(fine.agreement.b_expected, 4);
-  EXPECT_EQ(fine.agreement.Misses(), 0);
+  EXPECT_EQ(fine.support.expected, 4);
+  EXPECT_EQ(fine.support.met, 4);
+  EXPECT_EQ(fine.agreement.b_expected, 4);  // the objects-against-objects count agrees
+  EXPECT_EQ(fine.agreement.b_met, 4);
   EXPECT_FALSE(fine.contradicted);
   EXPECT_NEAR(fine.T_own_teammate.x_m, 5.0, 1e-6);
   EXPECT_NEAR(fine.T_own_teammate.yaw_rad, 0.3, 1e-6);
@@ -923,8 +936,8 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   ASSERT_EQ(contradicted->estimate().map_checks.count(1), 1u);
   const MapCheck& bad = contradicted->estimate().map_checks.at(1);
   EXPECT_TRUE(bad.contradicted);
-  EXPECT_EQ(bad.agreement.b_expected, 7);
-  EXPECT_EQ(bad.agreement.b_met, 4);
+  EXPECT_EQ(bad.support.expected, 7);
+  EXPECT_EQ(bad.support.met, 4);
 
   const auto off = run(1.0, true);
   EXPECT_EQ(off->estimate().trajectories.count(1), 1u);

@@ -274,6 +274,28 @@ TEST(Matcher, CompareObjectMapsCountsWhatEachRobotShouldHaveSeen) {
   const MapAgreement with_landmark = CompareObjectMaps(s.a, s.b, s.truth, s.ca, s.cb, 2.0);
   EXPECT_EQ(with_landmark.b_expected, 6);
   EXPECT_EQ(with_landmark.Misses(), 0);
+  // Against a's sonar points instead of a's objects: four returns on each of a's piles, none
+  // elsewhere. At the truth b's six piles all lie on returns; one spacing off too (the row
+  // lines up again); turned onto the water beside the row (b's row moved 6 m off the row line)
+  // none does.
+  std::vector<Point2> returns;
+  for (const auto& o : s.a.objects) {
+    for (int k = 0; k < 4; ++k) returns.push_back({o.center.x_m + 0.1 * k, o.center.y_m});
+  }
+  const PointCounts grid(returns, 1.0);
+  EXPECT_EQ(grid.CountInRectangle(s.a.objects[0].center, 0.0, 1.0, 1.0), 4);
+  EXPECT_EQ(grid.CountInRectangle({1000.0, 1000.0}, 0.0, 1.0, 1.0), 0);
+  const PointSupport on_truth = SupportByPoints(s.b, s.truth, grid, s.ca, 2.0, 3);
+  EXPECT_EQ(on_truth.expected, 6);
+  EXPECT_EQ(on_truth.met, 6);
+  const PointSupport on_shift = SupportByPoints(s.b, T_shifted, grid, s.ca, 2.0, 3);
+  EXPECT_EQ(on_shift.met, on_shift.expected);
+  const msgs::Pose2 T_beside =
+      Compose(Inverse(msgs::Pose2{-5.0, 3.0, 0.3}), Compose({0.0, -6.0, 0.0}, T_w_b));
+  const PointSupport on_water = SupportByPoints(s.b, T_beside, grid, s.ca, 2.0, 3);
+  EXPECT_GT(on_water.expected, 0);
+  EXPECT_EQ(on_water.met, 0);
+  EXPECT_DOUBLE_EQ(on_water.MissFraction(), 1.0);
   // A margin as wide as the spacing meets the neighbours: the test needs margins below it.
   const MapAgreement wide = CompareObjectMaps(s.a, s.b, T_shifted, s.ca, s.cb, 10.5);
   EXPECT_EQ(wide.Misses(), 0);

@@ -931,7 +931,7 @@ void OptimizerStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
                                          const msgs::ObjectMap& map) {
   if (header.robot_id == options_.robot_id) return;
   if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return;
-  teammate_objects_[header.robot_id] = map;
+  teammate_objects_[header.robot_id] = {header.time_s, map};
 }
 
 std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const {
@@ -1027,7 +1027,7 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
     const objects::Coverage& own_coverage) const {
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
-  if (map == teammate_objects_.end() || map->second.objects.empty() ||
+  if (map == teammate_objects_.end() || map->second.map.objects.empty() ||
       own_objects_.objects.empty() || held == nullptr) {
     return std::nullopt;
   }
@@ -1049,15 +1049,25 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
   if (!T) return std::nullopt;
   std::vector<Pose2> mate_poses;
   for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
-    if (held->known[k]) mate_poses.push_back(held->keyframes[k].T_map_kf);
+    // The keyframes the teammate's map was made from (not those it has seen since).
+    if (held->known[k] && held->keyframes[k].time_s <= map->second.time_s)
+      mate_poses.push_back(held->keyframes[k].T_map_kf);
   }
   const objects::Coverage mate_coverage(mate_poses, options_.map_coverage);
   MapCheck out;
   out.T_own_teammate = *T;
-  out.agreement = objects::CompareObjectMaps(own_objects_, map->second, *T, own_coverage,
+  out.agreement = objects::CompareObjectMaps(own_objects_, map->second.map, *T, own_coverage,
                                              mate_coverage, options_.map_margin_m);
-  out.contradicted = out.agreement.Misses() >= options_.min_map_misses &&
-                     out.agreement.MissFraction() > options_.max_map_miss_fraction;
+  std::vector<Point2> own_points;
+  for (const auto& [k, e] : own_.entries()) {
+    if (!e.has_pose || !e.has_points) continue;
+    for (const auto& p : e.points_kf) own_points.push_back(reg::Apply(e.T_map_kf, p));
+  }
+  out.support = objects::SupportByPoints(map->second.map, *T, objects::PointCounts(own_points),
+                                         own_coverage, options_.map_margin_m,
+                                         options_.map_min_points);
+  out.contradicted = out.support.Misses() >= options_.min_map_misses &&
+                     out.support.MissFraction() > options_.max_map_miss_fraction;
   return out;
 }
 

@@ -541,17 +541,18 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "(0: off)",
                 .min = 0.0});
     spec.Param("max_map_miss_fraction", &o_.max_map_miss_fraction,
-               {.doc = "no placement while more than this fraction of the objects each robot "
-                       "should have seen of the other's map (under the loops' transform) is "
-                       "missing (>= 1: off)",
+               {.doc = "no placement while more than this fraction of the teammate's objects "
+                       "that land where the own sonar looked (under the loops' transform) hold "
+                       "no own sonar points (>= 1: off)",
                 .min = 0.0});
     spec.Param("min_map_misses", &o_.min_map_misses,
                {.doc = "... and at least this many are missing", .min = 1});
     spec.Param("map_margin_m", &o_.map_margin_m,
-               {.doc = "an object meets the other map's when its rectangle grown by this "
-                       "margin meets one of them",
+               {.doc = "a teammate object is seen when its rectangle grown by this margin ...",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("map_min_points", &o_.map_min_points,
+               {.doc = "... and holds at least this many own sonar points", .min = 1});
     spec.Param("map_coverage_range_m", &o_.map_coverage.range_m,
                {.doc = "an object is expected where it lies within this range of a keyframe",
                 .unit = "m",
@@ -669,7 +670,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
     const auto& m = stage_->estimate().map_checks;
     const auto it = m.find(id);
     return it == m.end() ? std::pair{-1, -1}
-                         : std::pair{it->second.agreement.Expected(), it->second.agreement.Misses()};
+                         : std::pair{it->second.support.expected, it->second.support.Misses()};
   }
 
   // A row per change of a teammate's map-level check (counts or verdict).
@@ -677,15 +678,16 @@ class TwoStepOptimizerComponent final : public graph::Component {
     const auto& est = stage_->estimate();
     for (const auto& [id, c] : est.map_checks) {
       const auto& a = c.agreement;
-      const auto key = std::make_tuple(a.b_expected, a.b_met, a.a_expected, a.a_met, c.contradicted);
+      const auto key = std::make_tuple(c.support.expected, c.support.met, a.b_expected, a.b_met,
+                                       a.a_expected, a.a_met, c.contradicted);
       const auto it = checked_.find(id);
       if (it != checked_.end() && it->second == key) continue;
       checked_[id] = key;
       char line[240];
-      std::snprintf(line, sizeof line, "%.3f,%s,%.4f,%.4f,%.6f,%d,%d,%d,%d,%d\n", est.time_s,
+      std::snprintf(line, sizeof line, "%.3f,%s,%.4f,%.4f,%.6f,%d,%d,%d,%d,%d,%d\n", est.time_s,
                     Name(id).c_str(), c.T_own_teammate.x_m, c.T_own_teammate.y_m,
-                    c.T_own_teammate.yaw_rad, a.b_expected, a.b_met, a.a_expected, a.a_met,
-                    c.contradicted ? 1 : 0);
+                    c.T_own_teammate.yaw_rad, c.support.expected, c.support.met, a.b_met,
+                    a.a_expected, a.a_met, c.contradicted ? 1 : 0);
       map_checks_ += line;
     }
   }
@@ -703,10 +705,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::vector<msgs::TeamStepStats> steps_;
   std::map<int, msgs::Pose2> placed_;  // teammates placed after the last step
   std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad,map_expected,map_misses\n";
-  std::map<int, std::tuple<int, int, int, int, bool>> checked_;  // last logged map check
+  std::map<int, std::tuple<int, int, int, int, int, int, bool>> checked_;  // last logged
   std::string map_checks_ =
-      "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_met,"
-      "own_objects_expected,own_objects_met,contradicted\n";
+      "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_on_own_points,"
+      "mate_objects_met,own_objects_expected,own_objects_met,contradicted\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -81,7 +81,8 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
 
 MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                const Pose2& T_a_b, const Coverage& coverage_a,
-                               const Coverage& coverage_b, double margin_m) {
+                               const Coverage& coverage_b, double margin_m,
+                               double min_length_m) {
   MapAgreement out;
   const Pose2 T_b_a = [&] {
     const double c = std::cos(T_a_b.yaw_rad), s = std::sin(T_a_b.yaw_rad);
@@ -95,7 +96,9 @@ MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& 
     return !a.objects[i].landmark && !b.objects[k].landmark && Intersect(rect_a[i], grown_b[k]);
   };
   for (std::size_t k = 0; k < b.objects.size(); ++k) {
-    if (b.objects[k].landmark || !coverage_a.Observed(Apply(T_a_b, b.objects[k].center))) continue;
+    if (b.objects[k].landmark || b.objects[k].length_m < min_length_m ||
+        !coverage_a.Observed(Apply(T_a_b, b.objects[k].center)))
+      continue;
     ++out.b_expected;
     for (std::size_t i = 0; i < a.objects.size(); ++i) {
       if (meets(i, k)) {
@@ -105,7 +108,9 @@ MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& 
     }
   }
   for (std::size_t i = 0; i < a.objects.size(); ++i) {
-    if (a.objects[i].landmark || !coverage_b.Observed(Apply(T_b_a, a.objects[i].center))) continue;
+    if (a.objects[i].landmark || a.objects[i].length_m < min_length_m ||
+        !coverage_b.Observed(Apply(T_b_a, a.objects[i].center)))
+      continue;
     ++out.a_expected;
     for (std::size_t k = 0; k < b.objects.size(); ++k) {
       if (meets(i, k)) {
@@ -113,6 +118,61 @@ MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& 
         break;
       }
     }
+  }
+  return out;
+}
+
+PointCounts::PointCounts(const std::vector<Point2>& points, double cell_m) : cell_m_(cell_m) {
+  if (points.empty() || !(cell_m > 0.0)) return;
+  double x1 = points[0].x_m, y1 = points[0].y_m;
+  x0_ = x1, y0_ = y1;
+  for (const auto& p : points) {
+    x0_ = std::min(x0_, p.x_m), x1 = std::max(x1, p.x_m);
+    y0_ = std::min(y0_, p.y_m), y1 = std::max(y1, p.y_m);
+  }
+  nx_ = static_cast<int>((x1 - x0_) / cell_m_) + 1;
+  ny_ = static_cast<int>((y1 - y0_) / cell_m_) + 1;
+  counts_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), 0);
+  for (const auto& p : points) {
+    const int ix = std::min(nx_ - 1, static_cast<int>((p.x_m - x0_) / cell_m_));
+    const int iy = std::min(ny_ - 1, static_cast<int>((p.y_m - y0_) / cell_m_));
+    ++counts_[static_cast<std::size_t>(iy) * static_cast<std::size_t>(nx_) +
+              static_cast<std::size_t>(ix)];
+  }
+}
+
+int PointCounts::CountInRectangle(const Point2& c, double yaw_rad, double hl, double hb) const {
+  if (counts_.empty()) return 0;
+  const double cy = std::cos(yaw_rad), sy = std::sin(yaw_rad), r = std::hypot(hl, hb);
+  const int ix0 = std::max(0, static_cast<int>(std::floor((c.x_m - r - x0_) / cell_m_)));
+  const int iy0 = std::max(0, static_cast<int>(std::floor((c.y_m - r - y0_) / cell_m_)));
+  const int ix1 = std::min(nx_ - 1, static_cast<int>(std::floor((c.x_m + r - x0_) / cell_m_)));
+  const int iy1 = std::min(ny_ - 1, static_cast<int>(std::floor((c.y_m + r - y0_) / cell_m_)));
+  int n = 0;
+  for (int iy = iy0; iy <= iy1; ++iy) {
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      const double dx = x0_ + (ix + 0.5) * cell_m_ - c.x_m, dy = y0_ + (iy + 0.5) * cell_m_ - c.y_m;
+      if (std::abs(cy * dx + sy * dy) <= hl && std::abs(-sy * dx + cy * dy) <= hb) {
+        n += counts_[static_cast<std::size_t>(iy) * static_cast<std::size_t>(nx_) +
+                     static_cast<std::size_t>(ix)];
+      }
+    }
+  }
+  return n;
+}
+
+PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b, const PointCounts& a_points,
+                             const Coverage& coverage_a, double margin_m, int min_points,
+                             double min_length_m) {
+  PointSupport out;
+  for (const auto& o : b.objects) {
+    if (o.landmark || o.length_m < min_length_m) continue;
+    if (!coverage_a.Observed(Apply(T_a_b, o.center))) continue;
+    ++out.expected;
+    const int n = a_points.CountInRectangle(Apply(T_a_b, o.rect_center), o.yaw_rad + T_a_b.yaw_rad,
+                                            0.5 * o.length_m + margin_m,
+                                            0.5 * o.breadth_m + margin_m);
+    out.met += n >= min_points;
   }
   return out;
 }
