@@ -105,14 +105,14 @@ G2oGraph ParseG2o(std::istream& in, const std::string& source_name) {
     } else if (tag == "EDGE_SE2") {
       p.ExpectCount(12);
       graph.edges.push_back({p.Id(1), p.Id(2), p.Pose(3), p.UpperInformation(6)});
-    } else if (tag == "EDGE_SE2_PRIOR") {
+    } else if (tag == "EDGE_PRIOR_SE2" || tag == "EDGE_SE2_PRIOR") {  // g2o's name; draco's old
       p.ExpectCount(11);
       graph.priors.push_back({p.Id(1), p.Pose(2), p.UpperInformation(5)});
     } else if (tag == "FIX") {
       p.ExpectCount(2);
       graph.fixed.push_back(p.Id(1));
     } else {
-      p.Fail("unsupported tag '" + tag + "' (expected VERTEX_SE2, EDGE_SE2, EDGE_SE2_PRIOR, FIX)");
+      p.Fail("unsupported tag '" + tag + "' (expected VERTEX_SE2, EDGE_SE2, EDGE_PRIOR_SE2, FIX)");
     }
   }
   if (in.bad()) throw std::runtime_error(source_name + ": read error");
@@ -140,7 +140,7 @@ void WriteG2o(std::ostream& out, const G2oGraph& graph) {
     out << '\n';
   }
   for (const auto& p : graph.priors) {
-    out << "EDGE_SE2_PRIOR " << p.id;
+    out << "EDGE_PRIOR_SE2 " << p.id;
     WritePose(out, p.T_world_pose);
     WriteInformation(out, p.information);
     out << '\n';

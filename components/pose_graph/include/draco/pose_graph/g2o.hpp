@@ -2,7 +2,8 @@
 //   VERTEX_SE2 id x y theta
 //   EDGE_SE2 i j dx dy dtheta I11 I12 I13 I22 I23 I33     (measurement T_i_j, upper-triangular
 //                                                          information, order x y theta)
-//   EDGE_SE2_PRIOR i x y theta I11 I12 I13 I22 I23 I33    (prior on T_w_i)
+//   EDGE_PRIOR_SE2 i x y theta I11 I12 I13 I22 I23 I33    (prior on T_w_i; g2o's
+//                                                          EdgeSE2Prior; EDGE_SE2_PRIOR read too)
 //   FIX id
 // Blank lines and lines starting with '#' are skipped; any other tag is an error.
 #pragma once
@@ -68,7 +69,7 @@ void WriteG2o(std::ostream& out, const G2oGraph& graph);
 // origin, ascending id); every edge as a between factor of `kind`; priors; FIX as constant.
 PoseGraph2d ToPoseGraph(const G2oGraph& graph, FactorKind kind = FactorKind::kOdometry,
                         ErrorConvention convention = ErrorConvention::kG2o);
-// Current estimates and all factors of a pose graph (priors as EDGE_SE2_PRIOR).
+// Current estimates and all factors of a pose graph (priors as EDGE_PRIOR_SE2).
 G2oGraph ToG2o(const PoseGraph2d& graph);
 
 }  // namespace draco::pose_graph
