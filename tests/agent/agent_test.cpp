@@ -757,6 +757,40 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   EXPECT_EQ(stage.estimate().trajectories.count(2), 0u);
 }
 
+// Teammate 1: eight keyframes along its map's y axis, matched at T_0_1; Loop() gives the
+// loop between an own keyframe and one of its as the truth has it, accepted.
+struct TeammateOne {
+  Pose2 T_0_1{5.0, 1.0, 0.3};
+  msgs::KeyframePoses poses;
+  msgs::MapMatches matches;
+  explicit TeammateOne(OptimizerStage* stage) {
+    poses.header.robot_id = 1;
+    poses.header.incarnation = 1;
+    poses.full = true;
+    for (int k = 0; k < 8; ++k) poses.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
+    stage->OnKeyframePoses(poses);
+    auto& g = matches.guesses[1];
+    g.robot_id = 1;
+    g.matched = true;
+    g.match.T_a_b = T_0_1;
+    g.match_count = 1;
+  }
+  msgs::InterRobotLoop Loop(const msgs::KeyframeTrajectory& own, std::uint64_t id, int own_k,
+                            int mate_k) const {
+    msgs::InterRobotLoop l;
+    l.id = id;
+    l.own_robot = 0;
+    l.own_keyframe = own_k;
+    l.teammate_robot = 1;
+    l.teammate_keyframe = mate_k;
+    l.T_ownkf_teammatekf = reg::Between(own.keyframes[own_k].T_map_kf,
+                                        reg::Compose(T_0_1, poses.poses[mate_k].T_map_kf));
+    l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
+    l.flags = msgs::kLoopAccepted;
+    return l;
+  }
+};
+
 TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   // Robot 1 at T_0_1. Seven true loops that all name one teammate keyframe (one scan
   // registered against several own windows) do not place it; five over three distinct
@@ -766,31 +800,12 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   o.optimize_period_s = 0.0;
   OptimizerStage stage(o);
   const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
-  msgs::KeyframePoses p;
-  p.header.robot_id = 1;
-  p.header.incarnation = 1;
-  p.full = true;
-  for (int k = 0; k < 8; ++k) p.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
-  stage.OnKeyframePoses(p);
-  const Pose2 T_0_1{5.0, 1.0, 0.3};
-  msgs::MapMatches matches;
-  auto& g = matches.guesses[1];
-  g.robot_id = 1;
-  g.matched = true;
-  g.match.T_a_b = T_0_1;
-  g.match_count = 1;
+  const TeammateOne mate(&stage);
+  const Pose2 T_0_1 = mate.T_0_1;
+  const msgs::KeyframePoses& p = mate.poses;
+  const msgs::MapMatches& matches = mate.matches;
   const auto loop = [&](std::uint64_t id, int own_k, int mate_k) {
-    msgs::InterRobotLoop l;
-    l.id = id;
-    l.own_robot = 0;
-    l.own_keyframe = own_k;
-    l.teammate_robot = 1;
-    l.teammate_keyframe = mate_k;
-    l.T_ownkf_teammatekf =
-        reg::Between(traj.keyframes[own_k].T_map_kf, reg::Compose(T_0_1, p.poses[mate_k].T_map_kf));
-    l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
-    l.flags = msgs::kLoopAccepted;
-    return l;
+    return mate.Loop(traj, id, own_k, mate_k);
   };
   std::vector<msgs::InterRobotLoop> one_scan;
   for (int k = 0; k < 7; ++k) one_scan.push_back(loop(k + 1, k, 3));
@@ -866,35 +881,13 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
       traj.keyframes.push_back({k, double(k), kf.T_odom_body});
     }
     stage->OnTrajectory(traj);
-    msgs::KeyframePoses p;
-    p.header.robot_id = 1;
-    p.header.incarnation = 1;
-    p.full = true;
-    for (int k = 0; k < 8; ++k) p.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
-    stage->OnKeyframePoses(p);
-    const Pose2 T_0_1{5.0, 1.0, 0.3};
-    msgs::MapMatches matches;
-    auto& g = matches.guesses[1];
-    g.robot_id = 1;
-    g.matched = true;
-    g.match.T_a_b = T_0_1;
-    g.match_count = 1;
+    const TeammateOne mate(stage.get());
+    const Pose2 T_0_1 = mate.T_0_1;
     std::vector<msgs::InterRobotLoop> loops;
     const std::pair<int, int> pairs[] = {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
-    for (const auto& [own_k, mate_k] : pairs) {
-      msgs::InterRobotLoop l;
-      l.id = loops.size() + 1;
-      l.own_robot = 0;
-      l.own_keyframe = own_k;
-      l.teammate_robot = 1;
-      l.teammate_keyframe = mate_k;
-      l.T_ownkf_teammatekf = reg::Between(traj.keyframes[own_k].T_map_kf,
-                                          reg::Compose(T_0_1, p.poses[mate_k].T_map_kf));
-      l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 1e-4};
-      l.flags = msgs::kLoopAccepted;
-      loops.push_back(l);
-    }
-    msgs::ObjectMap own, mate;
+    for (const auto& [own_k, mate_k] : pairs)
+      loops.push_back(mate.Loop(traj, loops.size() + 1, own_k, mate_k));
+    msgs::ObjectMap own, mate_map;
     const Pose2 T_1_0 = reg::Inverse(T_0_1);
     const auto object = [](std::uint32_t id, const msgs::Point2& c) {
       msgs::Object ob;
@@ -905,17 +898,17 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
     };
     for (std::uint32_t i = 0; i < 4; ++i) {
       own.objects.push_back(object(i, shared[i]));
-      mate.objects.push_back(object(i, reg::Apply(T_1_0, shared[i])));
+      mate_map.objects.push_back(object(i, reg::Apply(T_1_0, shared[i])));
     }
     if (contradict) {
       for (std::uint32_t i = 0; i < 3; ++i) {
-        mate.objects.push_back(object(10 + i, reg::Apply(T_1_0, extra[i])));
+        mate_map.objects.push_back(object(10 + i, reg::Apply(T_1_0, extra[i])));
       }
     }
     stage->OnOwnObjectMap(own);
-    stage->OnTeammateObjectMap(p.header, mate);
+    stage->OnTeammateObjectMap(mate.poses.header, mate_map);
     msgs::TeamStepStats st;
-    stage->Step(10.0, loops, matches, &st);
+    stage->Step(10.0, loops, mate.matches, &st);
     return stage;
   };
   const auto agree = run(0.1, false);

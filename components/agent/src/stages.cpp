@@ -1063,9 +1063,9 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
     if (!e.has_pose || !e.has_points) continue;
     for (const auto& p : e.points_kf) own_points.push_back(reg::Apply(e.T_map_kf, p));
   }
-  out.support = objects::SupportByPoints(map->second.map, *T, objects::PointCounts(own_points),
-                                         own_coverage, options_.map_margin_m,
-                                         options_.map_min_points);
+  out.support =
+      objects::SupportByPoints(map->second.map, *T, objects::PointCounts(own_points), own_coverage,
+                               options_.map_margin_m, options_.map_min_points);
   out.contradicted = out.support.Misses() >= options_.min_map_misses &&
                      out.support.MissFraction() > options_.max_map_miss_fraction;
   return out;

@@ -81,8 +81,7 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
 
 MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                const Pose2& T_a_b, const Coverage& coverage_a,
-                               const Coverage& coverage_b, double margin_m,
-                               double min_length_m) {
+                               const Coverage& coverage_b, double margin_m, double min_length_m) {
   MapAgreement out;
   const Pose2 T_b_a = [&] {
     const double c = std::cos(T_a_b.yaw_rad), s = std::sin(T_a_b.yaw_rad);
@@ -161,17 +160,17 @@ int PointCounts::CountInRectangle(const Point2& c, double yaw_rad, double hl, do
   return n;
 }
 
-PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b, const PointCounts& a_points,
-                             const Coverage& coverage_a, double margin_m, int min_points,
-                             double min_length_m) {
+PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b,
+                             const PointCounts& a_points, const Coverage& coverage_a,
+                             double margin_m, int min_points, double min_length_m) {
   PointSupport out;
   for (const auto& o : b.objects) {
     if (o.landmark || o.length_m < min_length_m) continue;
     if (!coverage_a.Observed(Apply(T_a_b, o.center))) continue;
     ++out.expected;
-    const int n = a_points.CountInRectangle(Apply(T_a_b, o.rect_center), o.yaw_rad + T_a_b.yaw_rad,
-                                            0.5 * o.length_m + margin_m,
-                                            0.5 * o.breadth_m + margin_m);
+    const int n =
+        a_points.CountInRectangle(Apply(T_a_b, o.rect_center), o.yaw_rad + T_a_b.yaw_rad,
+                                  0.5 * o.length_m + margin_m, 0.5 * o.breadth_m + margin_m);
     out.met += n >= min_points;
   }
   return out;

@@ -409,7 +409,7 @@ struct OptimizerStageOptions {
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
 struct MapCheck {
-  msgs::Pose2 T_own_teammate;  // the transform the accepted loops imply
+  msgs::Pose2 T_own_teammate;       // the transform the accepted loops imply
   objects::PointSupport support;    // teammate objects on own points (decides)
   objects::MapAgreement agreement;  // objects against objects, both ways (logged)
   bool contradicted = false;        // the teammate is not placed
@@ -454,8 +454,7 @@ class OptimizerStage {
   bool Contested(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   // The object maps' agreement under the transform the accepted loops with `robot` imply;
   // nullopt when there is nothing to compare (no map, no loop with known poses).
-  std::optional<MapCheck> CheckMaps(int robot,
-                                    const std::vector<msgs::InterRobotLoop>& candidates,
+  std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
                                     const objects::Coverage& own_coverage) const;
 
   OptimizerStageOptions options_;

@@ -219,9 +219,9 @@ struct PointSupport {
     return expected > 0 ? static_cast<double>(Misses()) / expected : 0.0;
   }
 };
-PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b, const PointCounts& a_points,
-                             const Coverage& coverage_a, double margin_m, int min_points = 3,
-                             double min_length_m = 0.0);
+PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b,
+                             const PointCounts& a_points, const Coverage& coverage_a,
+                             double margin_m, int min_points = 3, double min_length_m = 0.0);
 
 // Object pairs of a and b when b is placed by T_a_b: each object of b with the own object
 // (nearest centre) whose rectangle meets its rectangle, both grown by margin_m. Rectangles,
