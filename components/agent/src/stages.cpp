@@ -910,6 +910,7 @@ void OptimizerStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
   if (!roster_.Note(options_.robot_id, poses.header, [this](int r) { Forget(r); })) return;
   poses_.OnKeyframePoses(poses);
   graph_changed_[poses.header.robot_id] = true;
+  ++poses_seq_[poses.header.robot_id];
 }
 
 void OptimizerStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
@@ -951,6 +952,8 @@ void OptimizerStage::Forget(int robot) {
   graph_changed_.erase(robot);
   match_counts_.erase(robot);
   teammate_objects_.erase(robot);
+  poses_seq_.erase(robot);
+  mate_coverage_.erase(robot);
   estimate_.trajectories.erase(robot);
   estimate_.T_own_teammate.erase(robot);
   own_graph_changed_ = true;  // the estimate is recomputed without it
@@ -1022,9 +1025,24 @@ bool OptimizerStage::Contested(int robot,
   return false;
 }
 
+const OptimizerStage::OwnView& OptimizerStage::UpdateOwnView() {
+  if (own_view_.version == own_.version()) return own_view_;
+  std::vector<Pose2> poses;
+  std::vector<Point2> points;
+  for (const auto& [k, e] : own_.entries()) {
+    if (!e.has_pose) continue;
+    poses.push_back(e.T_map_kf);
+    if (!e.has_points) continue;
+    for (const auto& p : e.points_kf) points.push_back(reg::Apply(e.T_map_kf, p));
+  }
+  own_view_.version = own_.version();
+  own_view_.coverage = objects::Coverage(poses, options_.map_coverage);
+  own_view_.points = objects::PointCounts(points);
+  return own_view_;
+}
+
 std::optional<MapCheck> OptimizerStage::CheckMaps(
-    int robot, const std::vector<msgs::InterRobotLoop>& candidates,
-    const objects::Coverage& own_coverage) const {
+    int robot, const std::vector<msgs::InterRobotLoop>& candidates, const OwnView& own_view) const {
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
   if (map == teammate_objects_.end() || map->second.map.objects.empty() ||
@@ -1047,25 +1065,25 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
   }
   const auto T = AlignSe2(local, placed);
   if (!T) return std::nullopt;
-  std::vector<Pose2> mate_poses;
-  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
-    // The keyframes the teammate's map was made from (not those it has seen since).
-    if (held->known[k] && held->keyframes[k].time_s <= map->second.time_s)
-      mate_poses.push_back(held->keyframes[k].T_map_kf);
+  auto& cached = mate_coverage_[robot];
+  const auto seq = poses_seq_.find(robot);
+  const std::uint64_t poses_seq = seq == poses_seq_.end() ? 0 : seq->second;
+  if (cached.poses_seq != poses_seq || cached.map_time_s != map->second.time_s) {
+    std::vector<Pose2> mate_poses;
+    for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+      // The keyframes the teammate's map was made from (not those it has seen since).
+      if (held->known[k] && held->keyframes[k].time_s <= map->second.time_s)
+        mate_poses.push_back(held->keyframes[k].T_map_kf);
+    }
+    cached = {poses_seq, map->second.time_s, objects::Coverage(mate_poses, options_.map_coverage)};
   }
-  const objects::Coverage mate_coverage(mate_poses, options_.map_coverage);
+  const objects::Coverage& mate_coverage = cached.coverage;
   MapCheck out;
   out.T_own_teammate = *T;
-  out.agreement = objects::CompareObjectMaps(own_objects_, map->second.map, *T, own_coverage,
+  out.agreement = objects::CompareObjectMaps(own_objects_, map->second.map, *T, own_view.coverage,
                                              mate_coverage, options_.map_margin_m);
-  std::vector<Point2> own_points;
-  for (const auto& [k, e] : own_.entries()) {
-    if (!e.has_pose || !e.has_points) continue;
-    for (const auto& p : e.points_kf) own_points.push_back(reg::Apply(e.T_map_kf, p));
-  }
-  out.support =
-      objects::SupportByPoints(map->second.map, *T, objects::PointCounts(own_points), own_coverage,
-                               options_.map_margin_m, options_.map_min_points);
+  out.support = objects::SupportByPoints(map->second.map, *T, own_view.points, own_view.coverage,
+                                         options_.map_margin_m, options_.map_min_points);
   out.contradicted = out.support.Misses() >= options_.min_map_misses &&
                      out.support.MissFraction() > options_.max_map_miss_fraction;
   return out;
@@ -1111,7 +1129,6 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       e.mate_kfs.insert(l.teammate_keyframe);
     }
     estimate_.map_checks.clear();
-    std::optional<objects::Coverage> own_coverage;  // built when a teammate needs it
     for (const auto& [robot, e] : evidence) {
       if (e.loops < options_.min_teammate_loops ||
           static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
@@ -1120,14 +1137,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
         continue;
       }
       if (options_.max_map_miss_fraction < 1.0) {
-        if (!own_coverage) {
-          std::vector<Pose2> own_poses;
-          for (const auto& [k, entry] : own_.entries()) {
-            if (entry.has_pose) own_poses.push_back(entry.T_map_kf);
-          }
-          own_coverage.emplace(own_poses, options_.map_coverage);
-        }
-        if (const auto check = CheckMaps(robot, candidates, *own_coverage)) {
+        if (const auto check = CheckMaps(robot, candidates, UpdateOwnView())) {
           estimate_.map_checks[robot] = *check;
           if (check->contradicted) continue;
         }

@@ -220,7 +220,9 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
   ny_ = static_cast<int>(std::ceil((y1 - y0 + 2 * o.range_m) / cell_m_)) + 1;
   cells_.assign(std::size_t(nx_) * ny_, 0);
   const int r = static_cast<int>(std::ceil(o.range_m / cell_m_));
+  const double cos_half = std::cos(std::min(o.half_aperture_rad, M_PI));
   for (const auto& p : poses) {
+    const double hx = std::cos(p.yaw_rad), hy = std::sin(p.yaw_rad);
     const int cx = static_cast<int>((p.x_m - x0_) / cell_m_);
     const int cy = static_cast<int>((p.y_m - y0_) / cell_m_);
     for (int iy = std::max(0, cy - r); iy <= std::min(ny_ - 1, cy + r); ++iy) {
@@ -229,10 +231,10 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
         if (cell >= min_views_) continue;
         const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
         const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
-        if (dx * dx + dy * dy > o.range_m * o.range_m) continue;
-        if (std::abs(NormalizeAngle(std::atan2(dy, dx) - p.yaw_rad)) > o.half_aperture_rad) {
-          continue;
-        }
+        const double d2 = dx * dx + dy * dy;
+        if (d2 > o.range_m * o.range_m) continue;
+        // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
+        if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
         ++cell;
       }
     }

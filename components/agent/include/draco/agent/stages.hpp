@@ -454,8 +454,16 @@ class OptimizerStage {
   bool Contested(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   // The object maps' agreement under the transform the accepted loops with `robot` imply;
   // nullopt when there is nothing to compare (no map, no loop with known poses).
+  // Where the own sonar looked and what it returned, in the own map frame; rebuilt when the
+  // own keyframes or their poses change.
+  struct OwnView {
+    std::uint64_t version = ~std::uint64_t{0};
+    objects::Coverage coverage;
+    objects::PointCounts points;
+  };
+  const OwnView& UpdateOwnView();
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
-                                    const objects::Coverage& own_coverage) const;
+                                    const OwnView& own_view) const;
 
   OptimizerStageOptions options_;
   OwnKeyframes own_;
@@ -478,6 +486,15 @@ class OptimizerStage {
     msgs::ObjectMap map;
   };
   std::map<int, HeldObjects> teammate_objects_;
+  OwnView own_view_;
+  // A teammate's coverage, rebuilt when its poses or its map's time change.
+  struct MateCoverage {
+    std::uint64_t poses_seq = ~std::uint64_t{0};
+    double map_time_s = -1.0;
+    objects::Coverage coverage;
+  };
+  std::map<int, std::uint64_t> poses_seq_;  // per teammate: KeyframePoses messages taken
+  mutable std::map<int, MateCoverage> mate_coverage_;
 };
 
 }  // namespace draco::agent
