@@ -308,6 +308,11 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "... ambiguous when a distinct answer reaches this fraction of the overlap",
                 .min = 0.0,
                 .max = 1.0});
+    spec.Param("ambiguity_overlap_distance_m", &o_.registration.ambiguity_overlap_distance_m,
+               {.doc = "... overlaps compared by the test count source points within this "
+                       "distance of the target",
+                .unit = "m",
+                .min = 0.0});
     spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
                {.doc = "own keyframes this close to a placed teammate scan are candidates",
                 .unit = "m",
