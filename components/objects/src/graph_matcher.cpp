@@ -208,7 +208,6 @@ std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
 Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
   if (poses.empty()) return;
   cell_m_ = o.cell_m;
-  min_views_ = static_cast<std::uint8_t>(std::clamp(o.min_views, 1, 255));
   double x0 = poses[0].x_m, x1 = x0, y0 = poses[0].y_m, y1 = y0;
   for (const auto& p : poses) {
     x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
@@ -228,14 +227,14 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
     for (int iy = std::max(0, cy - r); iy <= std::min(ny_ - 1, cy + r); ++iy) {
       for (int ix = std::max(0, cx - r); ix <= std::min(nx_ - 1, cx + r); ++ix) {
         std::uint8_t& cell = cells_[std::size_t(iy) * nx_ + ix];
-        if (cell >= min_views_) continue;
+        if (cell) continue;
         const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
         const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
         const double d2 = dx * dx + dy * dy;
         if (d2 > o.range_m * o.range_m) continue;
         // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
         if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
-        ++cell;
+        cell = 1;
       }
     }
   }
@@ -245,13 +244,13 @@ bool Coverage::Observed(const Point2& p) const {
   if (cells_.empty()) return false;
   const double fx = (p.x_m - x0_) / cell_m_, fy = (p.y_m - y0_) / cell_m_;
   if (fx < 0 || fy < 0 || fx >= nx_ || fy >= ny_) return false;
-  return cells_[std::size_t(fy) * nx_ + std::size_t(fx)] >= min_views_;
+  return cells_[std::size_t(fy) * nx_ + std::size_t(fx)] != 0;
 }
 
 double Coverage::ObservedFraction() const {
   if (cells_.empty()) return 0.0;
   std::size_t n = 0;
-  for (const auto c : cells_) n += c >= min_views_;
+  for (const auto c : cells_) n += c;
   return double(n) / double(cells_.size());
 }
 

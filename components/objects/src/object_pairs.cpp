@@ -81,8 +81,7 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
 
 MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                const Pose2& T_a_b, const Coverage& coverage_a,
-                               const Coverage& coverage_b, double margin_m, double min_length_m) {
-  MapAgreement out;
+                               const Coverage& coverage_b, double margin_m) {
   const Pose2 T_b_a = [&] {
     const double c = std::cos(T_a_b.yaw_rad), s = std::sin(T_a_b.yaw_rad);
     return Pose2{-(c * T_a_b.x_m + s * T_a_b.y_m), -(-s * T_a_b.x_m + c * T_a_b.y_m),
@@ -94,30 +93,26 @@ MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& 
   const auto meets = [&](std::size_t i, std::size_t k) {
     return !a.objects[i].landmark && !b.objects[k].landmark && Intersect(rect_a[i], grown_b[k]);
   };
-  for (std::size_t k = 0; k < b.objects.size(); ++k) {
-    if (b.objects[k].landmark || b.objects[k].length_m < min_length_m ||
-        !coverage_a.Observed(Apply(T_a_b, b.objects[k].center)))
-      continue;
-    ++out.b_expected;
-    for (std::size_t i = 0; i < a.objects.size(); ++i) {
-      if (meets(i, k)) {
-        ++out.b_met;
-        break;
+  // Objects of `from` inside `coverage` (placed by T_cov_from) and those meeting one of the
+  // other map's (of `others` objects), counted into *expected / *met.
+  const auto count = [&](const msgs::ObjectMap& from, const Coverage& coverage,
+                         const Pose2& T_cov_from, std::size_t others, bool from_is_a, int* expected,
+                         int* met) {
+    for (std::size_t x = 0; x < from.objects.size(); ++x) {
+      if (from.objects[x].landmark || !coverage.Observed(Apply(T_cov_from, from.objects[x].center)))
+        continue;
+      ++*expected;
+      for (std::size_t y = 0; y < others; ++y) {
+        if (from_is_a ? meets(x, y) : meets(y, x)) {
+          ++*met;
+          break;
+        }
       }
     }
-  }
-  for (std::size_t i = 0; i < a.objects.size(); ++i) {
-    if (a.objects[i].landmark || a.objects[i].length_m < min_length_m ||
-        !coverage_b.Observed(Apply(T_b_a, a.objects[i].center)))
-      continue;
-    ++out.a_expected;
-    for (std::size_t k = 0; k < b.objects.size(); ++k) {
-      if (meets(i, k)) {
-        ++out.a_met;
-        break;
-      }
-    }
-  }
+  };
+  MapAgreement out;
+  count(b, coverage_a, T_a_b, a.objects.size(), false, &out.b_expected, &out.b_met);
+  count(a, coverage_b, T_b_a, b.objects.size(), true, &out.a_expected, &out.a_met);
   return out;
 }
 
@@ -162,10 +157,10 @@ int PointCounts::CountInRectangle(const Point2& c, double yaw_rad, double hl, do
 
 PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b,
                              const PointCounts& a_points, const Coverage& coverage_a,
-                             double margin_m, int min_points, double min_length_m) {
+                             double margin_m, int min_points) {
   PointSupport out;
   for (const auto& o : b.objects) {
-    if (o.landmark || o.length_m < min_length_m) continue;
+    if (o.landmark) continue;
     if (!coverage_a.Observed(Apply(T_a_b, o.center))) continue;
     ++out.expected;
     const int n =

@@ -115,7 +115,6 @@ struct CoverageOptions {
   double range_m = 20.0;              // less than the sonar's 30 m: objects far out are faint
   double half_aperture_rad = 1.1345;  // 65 deg, the sonar's 130 deg aperture
   double cell_m = 1.0;
-  int min_views = 1;  // a cell counts as observed when at least this many poses saw it
 };
 class Coverage {
  public:
@@ -127,7 +126,6 @@ class Coverage {
 
  private:
   double cell_m_ = 1.0, x0_ = 0.0, y0_ = 0.0;
-  std::uint8_t min_views_ = 1;
   int nx_ = 0, ny_ = 0;
   std::vector<std::uint8_t> cells_;
 };
@@ -188,8 +186,7 @@ struct MapAgreement {
 };
 MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                const Pose2& T_a_b, const Coverage& coverage_a,
-                               const Coverage& coverage_b, double margin_m,
-                               double min_length_m = 0.0);
+                               const Coverage& coverage_b, double margin_m);
 
 // A robot's sonar points (map frame) counted in square cells, for SupportByPoints.
 class PointCounts {
@@ -210,8 +207,7 @@ class PointCounts {
 // The objects of b that, placed by T_a_b, lie where a's sonar looked (centre inside
 // coverage_a), and those of them with at least min_points of a's points inside their
 // rectangle grown by margin_m: a's raw returns, not a's objects, so an object a saw from
-// another side or too few times to cluster still counts as seen. Landmarks and objects shorter
-// than min_length_m are left out.
+// another side or too few times to cluster still counts as seen. Landmarks are left out.
 struct PointSupport {
   int expected = 0, met = 0;
   int Misses() const { return expected - met; }
@@ -221,7 +217,7 @@ struct PointSupport {
 };
 PointSupport SupportByPoints(const msgs::ObjectMap& b, const Pose2& T_a_b,
                              const PointCounts& a_points, const Coverage& coverage_a,
-                             double margin_m, int min_points = 3, double min_length_m = 0.0);
+                             double margin_m, int min_points = 3);
 
 // Object pairs of a and b when b is placed by T_a_b: each object of b with the own object
 // (nearest centre) whose rectangle meets its rectangle, both grown by margin_m. Rectangles,
