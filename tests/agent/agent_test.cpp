@@ -859,7 +859,9 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   // own sonar returns under them. When the teammate's map holds three more objects where the
   // own sonar looked and saw nothing (a structure turned onto open water), the teammate is not
   // placed; with the check off it is.
-  const auto run = [](double max_map_miss_fraction, bool contradict) {
+  const auto run = [](double max_map_miss_fraction, bool contradict,
+                      double own_heading_rad = msgs::kUnknownHeading,
+                      double mate_heading_rad = msgs::kUnknownHeading) {
     OptimizerStageOptions o;
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
@@ -905,6 +907,8 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
         mate_map.objects.push_back(object(10 + i, reg::Apply(T_1_0, extra[i])));
       }
     }
+    own.map_heading_rad = own_heading_rad;
+    mate_map.map_heading_rad = mate_heading_rad;
     stage->OnOwnObjectMap(own);
     stage->OnTeammateObjectMap(mate.poses.header, mate_map);
     msgs::TeamStepStats st;
@@ -934,7 +938,56 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
 
   const auto off = run(1.0, true);
   EXPECT_EQ(off->estimate().trajectories.count(1), 1u);
-  EXPECT_TRUE(off->estimate().map_checks.empty());
+  ASSERT_EQ(off->estimate().map_checks.count(1), 1u);  // the headings' check only
+  EXPECT_EQ(off->estimate().map_checks.at(1).support.expected, 0);
+  EXPECT_FALSE(off->estimate().map_checks.at(1).contradicted);
+  EXPECT_TRUE(std::isnan(off->estimate().map_checks.at(1).heading_gap_rad));
+}
+
+TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
+  // The loops place robot 1 with a rotation of 0.3 rad (TeammateOne). Map headings whose
+  // difference is 0.3 rad (give or take the AHRS's error) allow it; headings that say the
+  // teammate's map is turned the other way (a grid flipped 180 deg) keep it out, and so does
+  // a quarter turn; unknown headings do not judge.
+  const auto run = [](double own_heading_rad, double mate_heading_rad, double max_gap_rad) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.max_map_miss_fraction = 1.0;  // the headings alone
+    o.max_heading_gap_rad = max_gap_rad;
+    auto stage = std::make_unique<OptimizerStage>(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(stage.get(), 8);
+    const TeammateOne mate(stage.get());
+    std::vector<msgs::InterRobotLoop> loops;
+    const std::pair<int, int> pairs[] = {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+    for (const auto& [own_k, mate_k] : pairs)
+      loops.push_back(mate.Loop(traj, loops.size() + 1, own_k, mate_k));
+    msgs::ObjectMap own, mate_map;
+    msgs::Object ob;
+    ob.length_m = ob.breadth_m = 1.0;
+    own.objects = mate_map.objects = {ob};
+    own.map_heading_rad = own_heading_rad;
+    mate_map.map_heading_rad = mate_heading_rad;
+    stage->OnOwnObjectMap(own);
+    stage->OnTeammateObjectMap(mate.poses.header, mate_map);
+    msgs::TeamStepStats st;
+    stage->Step(10.0, loops, mate.matches, &st);
+    return stage;
+  };
+  const double gap = 0.5236;
+  const auto right = run(1.0, 1.3 + 0.05, gap);
+  EXPECT_EQ(right->estimate().trajectories.count(1), 1u);
+  ASSERT_EQ(right->estimate().map_checks.count(1), 1u);
+  EXPECT_NEAR(right->estimate().map_checks.at(1).heading_gap_rad, -0.05, 1e-6);
+  const auto flipped = run(1.0, 1.3 + M_PI, gap);
+  EXPECT_EQ(flipped->estimate().trajectories.count(1), 0u);
+  EXPECT_TRUE(flipped->SharedTransforms().empty());
+  ASSERT_EQ(flipped->estimate().map_checks.count(1), 1u);
+  EXPECT_TRUE(flipped->estimate().map_checks.at(1).contradicted);
+  EXPECT_NEAR(std::abs(flipped->estimate().map_checks.at(1).heading_gap_rad), M_PI, 1e-6);
+  EXPECT_EQ(run(1.0, 1.3 + 0.5 * M_PI, gap)->estimate().trajectories.count(1), 0u);
+  EXPECT_EQ(run(1.0, 1.3 + M_PI, 0.0)->estimate().trajectories.count(1), 1u);  // off
+  EXPECT_EQ(run(msgs::kUnknownHeading, 1.3 + M_PI, gap)->estimate().trajectories.count(1), 1u);
 }
 
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {

@@ -245,6 +245,17 @@ TEST(FleetCodec, ObjectMapRoundTrip) {
   e.header = Header();
   ASSERT_TRUE(Decode(Encode(e), &d));
   EXPECT_TRUE(d.upserts.empty() && d.removed.empty());
+  EXPECT_TRUE(std::isnan(d.map_heading_rad));  // no heading: none decoded
+  // The map's heading in 12 bits: within 0.05 deg, wrapped to (-pi, pi].
+  for (const double heading : {0.0, 1.234, -2.5, 3.1, 7.0, -3.14159}) {
+    e.map_heading_rad = heading;
+    const auto with = Encode(e);
+    ASSERT_TRUE(Decode(with, &d));
+    EXPECT_NEAR(std::remainder(d.map_heading_rad - heading, 2 * std::numbers::pi), 0.0, 0.0009)
+        << heading;
+    EXPECT_GT(d.map_heading_rad, -std::numbers::pi - 1e-12);
+    EXPECT_LE(d.map_heading_rad, std::numbers::pi + 1e-12);
+  }
 }
 
 TEST(FleetCodec, LandmarkObjectsKeepTheirFlagThroughTheId) {

@@ -56,6 +56,37 @@ TEST(DeadReckoner, StraightLineRelativeAndAbsoluteYaw) {
   }
 }
 
+// The odom frame's absolute heading (the AHRS reading taken as yaw 0) goes out with every
+// sample and on every keyframe; a gyro-only AHRS (absolute_heading false) reports none.
+TEST(DeadReckoner, ReportsTheOdomFramesHeading) {
+  for (const bool absolute : {true, false}) {
+    DeadReckoner dr(DeadReckoningOptions{.absolute_heading = absolute});
+    dr.AddAhrs(Yaw(0.0, 0.3));
+    KeyframeSelector sel;
+    for (int k = 0; k <= 100; ++k) {
+      dr.AddAhrs(Yaw(0.1 * k, 0.3 + 0.001 * k));  // later readings do not move the frame
+      const auto d = dr.AddDvl(Dvl(0.1 * k, 0.5));
+      ASSERT_TRUE(d);
+      if (absolute) {
+        EXPECT_DOUBLE_EQ(d->odom_heading_rad, 0.3);
+      } else {
+        EXPECT_TRUE(std::isnan(d->odom_heading_rad));
+      }
+      sel.AddDeadReckoning(*d);
+    }
+    msgs::SonarFeatures f;
+    f.time_s = 5.0;
+    sel.AddFeatures(f);
+    const auto kfs = sel.Poll();
+    ASSERT_EQ(kfs.size(), 1u);
+    if (absolute) {
+      EXPECT_DOUBLE_EQ(kfs[0].odom_heading_rad, 0.3);
+    } else {
+      EXPECT_TRUE(std::isnan(kfs[0].odom_heading_rad));
+    }
+  }
+}
+
 // Constant speed and turn rate: x_N = sum_k R(w k dt) v dt, a geometric series.
 TEST(DeadReckoner, CircleMatchesTheClosedFormSum) {
   const double v = 0.5, w = 0.1, dt = 0.1;

@@ -215,6 +215,70 @@ RowScene MakeRow(std::uint64_t seed) {
   return s;
 }
 
+// A 4 x 3 grid of identical piles (6 m by 4 m spacing) seen whole by both robots: it fits
+// itself turned 180 deg about its centre, so the object graphs cannot tell the truth from the
+// flip. The maps' absolute headings (each robot's AHRS) can: an answer is one whose rotation
+// they allow (when the assignment holds only the other fit, there is no answer); a rotation
+// the grid has no fit for (90 deg) gives no match at all.
+TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
+  std::vector<msgs::Object> world;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      msgs::Object o;
+      o.id = static_cast<std::uint32_t>(world.size());
+      o.center = o.rect_center = {6.0 * i, 4.0 * j};
+      o.length_m = o.breadth_m = 0.6;
+      world.push_back(o);
+    }
+  }
+  std::vector<int> all(world.size());
+  for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
+  std::mt19937_64 rng(5);
+  const WorldOptions wo{.center_noise_m = 0.1, .size_noise_m = 0.02};
+  const msgs::Pose2 T_w_a{-20.0, 7.0, 0.4}, T_w_b{30.0, -12.0, 2.1};
+  MatcherOptions o;
+  o.landmarks = false;
+  msgs::ObjectMap a = View(world, all, T_w_a, 0, wo, &rng);
+  msgs::ObjectMap b = View(world, all, T_w_b, 0, wo, &rng);
+  const msgs::Pose2 truth = Compose(Inverse(T_w_a), T_w_b);
+  // The flip: b's grid turned 180 deg about the grid's centre (9, 4) in the world.
+  const msgs::Pose2 T_w_turn = Compose({9.0, 4.0, M_PI}, {-9.0, -4.0, 0.0});
+  const msgs::Pose2 flip = Compose(Inverse(T_w_a), Compose(T_w_turn, T_w_b));
+  // AHRS headings with a few degrees of error each.
+  a.map_heading_rad = 0.4 + 0.03;
+  b.map_heading_rad = 2.1 - 0.04;
+  ASSERT_TRUE(HeadingYawPrior(a, b).has_value());
+  const auto right = MatchObjectMaps(a, b, o);
+  ASSERT_EQ(right.status, MatchStatus::kMatched);
+  EXPECT_TRUE(Close(right.T_a_b, truth, 1.0, 3.0));
+  EXPECT_EQ(right.num_inliers, 12);
+  // Headings that say b's map is turned the other way round: the flip, not the truth.
+  b.map_heading_rad = 2.1 + M_PI;
+  const auto turned = MatchObjectMaps(a, b, o);
+  if (turned.status == MatchStatus::kMatched) {
+    EXPECT_TRUE(Close(turned.T_a_b, flip, 1.0, 3.0));
+  } else {
+    EXPECT_EQ(turned.status, MatchStatus::kTooFewInliers);  // the assignment holds the truth
+  }
+  // A quarter turn: no hypothesis the headings allow fits five piles.
+  b.map_heading_rad = 2.1 + 0.5 * M_PI;
+  EXPECT_NE(MatchObjectMaps(a, b, o).status, MatchStatus::kMatched);
+  // Off, or a heading unknown: no bound; the answer is one of the two fits.
+  for (const double gap : {0.0, -1.0}) {
+    MatcherOptions off = o;
+    off.max_heading_gap_rad = gap;
+    const auto m = MatchObjectMaps(a, b, off);
+    ASSERT_EQ(m.status, MatchStatus::kMatched);
+    EXPECT_TRUE(Close(m.T_a_b, truth, 1.0, 3.0) || Close(m.T_a_b, flip, 1.0, 3.0));
+  }
+  b.map_heading_rad = msgs::kUnknownHeading;
+  EXPECT_FALSE(HeadingYawPrior(a, b).has_value());
+  EXPECT_EQ(MatchObjectMaps(a, b, o).status, MatchStatus::kMatched);
+  EXPECT_TRUE(HeadingAllows(std::nullopt, 3.0, 0.5));
+  EXPECT_TRUE(HeadingAllows(0.1, 0.1 + 2 * M_PI + 0.4, 0.5));  // wraps
+  EXPECT_FALSE(HeadingAllows(0.1, 0.7, 0.5));
+}
+
 TEST(Matcher, CoverageAndMisses) {
   const RowScene s = MakeRow(1);
   const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};

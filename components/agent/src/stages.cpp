@@ -257,6 +257,7 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
     seen_version_ = own_.version();
   }
   objects_.robot_id = options_.robot_id;
+  objects_.map_heading_rad = map_heading_rad_;
   if (now_s - last_publish_s_ >= options_.object_map_period_s && !objects_.objects.empty()) {
     bool same = published_once_ && last_published_.objects.size() == objects_.objects.size();
     for (std::size_t i = 0; same && i < objects_.objects.size(); ++i) {
@@ -409,7 +410,8 @@ void GraphMatcherStage::ChainUnmatched(double now_s, const msgs::ObjectMap& own,
       via = sender;
       break;
     }
-    if (!T) {
+    if (!T || !objects::HeadingAllows(objects::HeadingYawPrior(own, mate.objects), T->yaw_rad,
+                                      options_.matcher.max_heading_gap_rad)) {
       g.chained = false;
       continue;
     }
@@ -1065,6 +1067,16 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
   }
   const auto T = AlignSe2(local, placed);
   if (!T) return std::nullopt;
+  MapCheck out;
+  out.T_own_teammate = *T;
+  if (const auto prior = objects::HeadingYawPrior(own_objects_, map->second.map)) {
+    out.heading_gap_rad = std::remainder(T->yaw_rad - *prior, 2.0 * M_PI);
+    if (!objects::HeadingAllows(prior, T->yaw_rad, options_.max_heading_gap_rad)) {
+      out.contradicted = true;
+      return out;
+    }
+  }
+  if (options_.max_map_miss_fraction >= 1.0) return out;
   auto& cached = mate_coverage_[robot];
   const auto seq = poses_seq_.find(robot);
   const std::uint64_t poses_seq = seq == poses_seq_.end() ? 0 : seq->second;
@@ -1078,8 +1090,6 @@ std::optional<MapCheck> OptimizerStage::CheckMaps(
     cached = {poses_seq, map->second.time_s, objects::Coverage(mate_poses, options_.map_coverage)};
   }
   const objects::Coverage& mate_coverage = cached.coverage;
-  MapCheck out;
-  out.T_own_teammate = *T;
   out.agreement = objects::CompareObjectMaps(own_objects_, map->second.map, *T, own_view.coverage,
                                              mate_coverage, options_.map_margin_m);
   out.support = objects::SupportByPoints(map->second.map, *T, own_view.points, own_view.coverage,
@@ -1136,7 +1146,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
           Contested(robot, candidates)) {
         continue;
       }
-      if (options_.max_map_miss_fraction < 1.0) {
+      if (options_.max_map_miss_fraction < 1.0 || options_.max_heading_gap_rad > 0.0) {
         if (const auto check = CheckMaps(robot, candidates, UpdateOwnView())) {
           estimate_.map_checks[robot] = *check;
           if (check->contradicted) continue;
@@ -1161,7 +1171,13 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     for (const auto& e : entries) {
       if (e.robot_id == own_id || loop_verified.count(e.robot_id) || chained.count(e.robot_id))
         continue;
-      chained[e.robot_id] = reg::Compose(*g, e.T_sender_robot);
+      const Pose2 T = reg::Compose(*g, e.T_sender_robot);
+      const auto map = teammate_objects_.find(e.robot_id);
+      if (map != teammate_objects_.end() &&
+          !objects::HeadingAllows(objects::HeadingYawPrior(own_objects_, map->second.map),
+                                  T.yaw_rad, options_.max_heading_gap_rad))
+        continue;
+      chained[e.robot_id] = T;
     }
   }
   const auto guess = [&](int robot) -> std::optional<Pose2> {

@@ -216,6 +216,10 @@ class GraphMatcherComponent final : public graph::Component {
                        "meet",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("max_heading_gap_rad", &o_.matcher.max_heading_gap_rad,
+               {.doc = "hypotheses turned further than this from the maps' absolute headings' "
+                       "difference are dropped (<= 0: off)",
+                .unit = "rad"});
   }
   Status Start(Context&) override {
     stage_ = std::make_unique<GraphMatcherStage>(o_);
@@ -562,6 +566,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
                {.doc = "an object is expected where it lies within this range of a keyframe",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("max_heading_gap_rad", &o_.max_heading_gap_rad,
+               {.doc = "no placement whose rotation differs from the maps' absolute headings' "
+                       "difference by more than this (<= 0: off)",
+                .unit = "rad"});
     spec.Param("chain_from_factors", &o_.two_step.teammate_chain_from_factors,
                {.doc = "global step: teammate chain with its own information, not the "
                        "reference's sigmas"});
@@ -688,11 +696,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
       const auto it = checked_.find(id);
       if (it != checked_.end() && it->second == key) continue;
       checked_[id] = key;
-      char line[240];
-      std::snprintf(line, sizeof line, "%.3f,%s,%.4f,%.4f,%.6f,%d,%d,%d,%d,%d,%d\n", est.time_s,
-                    Name(id).c_str(), c.T_own_teammate.x_m, c.T_own_teammate.y_m,
+      char line[260];
+      std::snprintf(line, sizeof line, "%.3f,%s,%.4f,%.4f,%.6f,%d,%d,%d,%d,%d,%d,%.4f\n",
+                    est.time_s, Name(id).c_str(), c.T_own_teammate.x_m, c.T_own_teammate.y_m,
                     c.T_own_teammate.yaw_rad, c.support.expected, c.support.met, a.b_met,
-                    a.a_expected, a.a_met, c.contradicted ? 1 : 0);
+                    a.a_expected, a.a_met, c.contradicted ? 1 : 0, c.heading_gap_rad);
       map_checks_ += line;
     }
   }
@@ -713,7 +721,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::map<int, std::tuple<int, int, int, int, int, int, bool>> checked_;  // last logged
   std::string map_checks_ =
       "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_on_own_points,"
-      "mate_objects_met,own_objects_expected,own_objects_met,contradicted\n";
+      "mate_objects_met,own_objects_expected,own_objects_met,contradicted,heading_gap_rad\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -40,6 +40,8 @@ constexpr int kCorrelationScale = 511;
 constexpr int kCorrelationBits = 10;
 constexpr int kOverlapBits = 8;
 constexpr int kObjectYawBits = 8;
+// A map's absolute heading: a presence bit, then 12 bits over [0, 2 pi) (0.09 deg).
+constexpr int kHeadingBits = 12;
 
 // Largest |v| the decoders accept for a flags / id / version field.
 constexpr std::uint64_t kMaxU32 = 0xffffffffull;
@@ -374,13 +376,23 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::Heartbeat* m,
 
 // ---------------------------------------------------------------------------------------
 // Object-map update: header, version, base_version, upserts sorted by id (id deltas, centre,
-// rectangle-centre offset, sides, 8-bit yaw over [0, pi), num_points), removed ids (deltas).
+// rectangle-centre offset, sides, 8-bit yaw over [0, pi), num_points), removed ids (deltas),
+// after the versions the map's heading (kHeadingBits).
 
 std::vector<std::uint8_t> Encode(const msgs::ObjectMapUpdate& m, const CodecOptions& o) {
   Encoder e(FleetKind::kObjectMap, o);
   e.Header(m.header);
   e.w.PutExpGolomb(m.version, kVersionOrder);
   e.w.PutExpGolomb(m.base_version, kVersionOrder);
+  const bool heading = std::isfinite(m.map_heading_rad);
+  e.w.Put(heading ? 1u : 0u, 1);
+  if (heading) {
+    const double turn = 2.0 * std::numbers::pi;
+    const double u = m.map_heading_rad - turn * std::floor(m.map_heading_rad / turn);  // [0, 2 pi]
+    const auto q = static_cast<std::uint64_t>(std::llround(u / turn * (1 << kHeadingBits))) %
+                   (1u << kHeadingBits);
+    e.w.Put(q, kHeadingBits);
+  }
 
   std::vector<const msgs::Object*> objs;
   for (const auto& ob : m.upserts) objs.push_back(&ob);
@@ -485,9 +497,17 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::ObjectMapUpdat
   std::size_t n = 0;
   const auto run = [&]() {
     if (!d.Options() || !d.Header(&out.header) || !d.U32(kVersionOrder, &out.version, "version") ||
-        !d.U32(kVersionOrder, &out.base_version, "base_version") ||
-        !d.Count(b.max_objects, &n, "upserts"))
+        !d.U32(kVersionOrder, &out.base_version, "base_version"))
       return false;
+    std::uint64_t heading = 0, q = 0;
+    if (!d.U(1, &heading, "map heading flag")) return false;
+    if (heading) {
+      if (!d.U(kHeadingBits, &q, "map heading")) return false;
+      out.map_heading_rad =
+          static_cast<double>(q) * 2.0 * std::numbers::pi / (1 << kHeadingBits) -
+          (q >= (1u << (kHeadingBits - 1)) ? 2.0 * std::numbers::pi : 0.0);  // (-pi, pi]
+    }
+    if (!d.Count(b.max_objects, &n, "upserts")) return false;
     if (n > 0) {
       const std::uint64_t max_coord =
           bits::ZigZag(std::llround(b.max_abs_coordinate_m / o.position_step_m) + 1);

@@ -25,6 +25,7 @@ std::optional<msgs::DeadReckoning> DeadReckoner::AddDvl(const msgs::DvlVelocity&
   out.time_s = t;
   out.depth_m = depth_m_;
   out.dvl_ok = good;
+  if (options_.absolute_heading) out.odom_heading_rad = yaw_offset_rad_;
   if (!initialized_) {
     initialized_ = true;
     pose_ = msgs::Pose2{0.0, 0.0, yaw_rad_};

@@ -80,6 +80,7 @@ std::vector<msgs::Keyframe> KeyframeSelector::Poll() {
       kf.time_s = f.time_s;
       kf.T_odom_body = pose;
       kf.depth_m = history_.DepthAt(f.time_s);
+      kf.odom_heading_rad = odom_heading_rad_;
       kf.points_body.reserve(f.points_sensor.size());
       for (const msgs::Point2& p : f.points_sensor) {
         kf.points_body.push_back(se2::Apply(T_body_sensor_, p));

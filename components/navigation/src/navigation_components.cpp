@@ -32,6 +32,13 @@ class DeadReckoningComponent final : public graph::Component {
     out_ = spec.Output<msgs::DeadReckoning>("odometry", "pose in the odom frame per DVL sample");
     spec.Param("yaw_relative_to_first", &o_.yaw_relative_to_first,
                {"odom yaw 0 = the first AHRS reading", "", {}, {}, {}});
+    spec.Param("absolute_heading", &o_.absolute_heading,
+               {"the AHRS yaw has an absolute reference (magnetometer, gyrocompass): the odom "
+                "frame's heading goes with the map to teammates",
+                "",
+                {},
+                {},
+                {}});
     spec.Param(
         "max_speed_mps", &o_.max_speed_mps,
         {"faster DVL samples are spikes (the last good velocity is held)", "m/s", 0.0, {}, {}});

@@ -316,6 +316,10 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
+  const std::optional<double> yaw_prior = HeadingYawPrior(a, b);
+  const auto heading_ok = [&](const Pose2& T) {
+    return HeadingAllows(yaw_prior, T.yaw_rad, options.max_heading_gap_rad);
+  };
   const int na = static_cast<int>(a.objects.size()), nb = static_cast<int>(b.objects.size());
   const int edges = std::min(na * (na - 1), nb * (nb - 1)) / 2;
   if (std::min(na, nb) < options.min_objects || edges < options.min_edges) {
@@ -372,7 +376,9 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
   auto try_sample = [&](std::size_t s, std::size_t t) {
     const double da = Distance(pa[s], pa[t]), db = Distance(pb[s], pb[t]);
     if (da < 1e-6 || std::abs(da - db) > thr) return;  // a rigid motion keeps distances
-    Hypothesis h = Score(FitRigid({pa[s], pa[t]}, {pb[s], pb[t]}), pa, pb, thr, nullptr);
+    const Pose2 T = FitRigid({pa[s], pa[t]}, {pb[s], pb[t]});
+    if (!heading_ok(T)) return;
+    Hypothesis h = Score(T, pa, pb, thr, nullptr);
     charge(&h);
     if (Better(h, best)) best = h;
   };
@@ -400,7 +406,7 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
     }
     Hypothesis refit = Score(FitRigid(qa, qb), pa, pb, thr, nullptr);
     charge(&refit);
-    if (!Better(best, refit)) best = refit;
+    if (!Better(best, refit) && heading_ok(refit.T)) best = refit;
   }
   match.num_ransac_inliers = best.inliers;
   if (best.inliers < options.min_inliers) {
@@ -460,7 +466,8 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
       const double da = Distance(corr[u].first, corr[v].first);
       const double db = Distance(corr[u].second, corr[v].second);
       if (da < 1e-6 || std::abs(da - db) > thr) return;
-      hyps.push_back(FitRigid({corr[u].first, corr[v].first}, {corr[u].second, corr[v].second}));
+      const Pose2 T = FitRigid({corr[u].first, corr[v].first}, {corr[u].second, corr[v].second});
+      if (heading_ok(T)) hyps.push_back(T);
     };
     const std::size_t m = corr.size();
     if (m * (m - 1) / 2 <= static_cast<std::size_t>(std::max(0, options.verify_iterations))) {
@@ -531,7 +538,12 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
     if (kept == pairs) break;
     pairs = std::move(kept);
   }
-  // 5. Outcome (negative evidence of the final transform first).
+  // 5. Outcome (the headings' bound and negative evidence of the final transform first).
+  if (!heading_ok(T)) {
+    match.status = MatchStatus::kHeadingMismatch;
+    match.num_inliers = static_cast<int>(pairs.size());
+    return match;
+  }
   if (negative) {
     match.num_misses = misses(T);
     if (double(pairs.size()) - options.miss_weight * match.num_misses < options.min_inliers) {
@@ -566,7 +578,9 @@ msgs::ObjectMatch MatchClusters(const ObjectMap& a, const ObjectMap& b,
   if (!options.structure_lines) return spectral;
   const LineMatchResult lines =
       MatchStructureLines(a, b, options.lines, options.distinct_m, options.distinct_rad);
-  if (!lines.found || lines.best.support < options.min_line_support) return spectral;
+  if (!lines.found || lines.best.support < options.min_line_support ||
+      !HeadingAllows(HeadingYawPrior(a, b), lines.best.T_a_b.yaw_rad, options.max_heading_gap_rad))
+    return spectral;
   const bool spectral_ok = spectral.status == MatchStatus::kMatched;
   if (spectral_ok &&
       ScoreStructure(a, b, spectral.T_a_b, options.lines).support >= lines.best.support) {
@@ -636,6 +650,8 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
     r = MatchLandmarkPoints(pa, pb, wide);
     if (!accept(r, options.wide_max_landmark_ambiguity)) return clusters;
   }
+  if (!HeadingAllows(HeadingYawPrior(a, b), r.T_a_b.yaw_rad, options.max_heading_gap_rad))
+    return clusters;
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
@@ -657,6 +673,16 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
       1.0, double(r.support) / double(std::max<std::size_t>(1, std::min(la.size(), lb.size()))));
   match.ambiguity = double(r.runner_up_support) / double(r.support);
   return match;
+}
+
+std::optional<double> HeadingYawPrior(const ObjectMap& a, const ObjectMap& b) {
+  if (!std::isfinite(a.map_heading_rad) || !std::isfinite(b.map_heading_rad)) return std::nullopt;
+  return NormalizeAngle(b.map_heading_rad - a.map_heading_rad);
+}
+
+bool HeadingAllows(const std::optional<double>& yaw_prior_rad, double yaw_rad, double max_gap_rad) {
+  if (!yaw_prior_rad || !(max_gap_rad > 0.0)) return true;
+  return std::abs(NormalizeAngle(yaw_rad - *yaw_prior_rad)) <= max_gap_rad;
 }
 
 // Tracks are compared by T_a_b itself (where b's origin lands, and the yaw).

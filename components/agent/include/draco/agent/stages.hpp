@@ -135,7 +135,10 @@ class ObjectMapperStage {
   };
   explicit ObjectMapperStage(const ObjectMapperStageOptions& options);
   ~ObjectMapperStage();
-  void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
+  void OnKeyframe(const msgs::Keyframe& keyframe) {
+    own_.OnKeyframe(keyframe);
+    map_heading_rad_ = keyframe.odom_heading_rad;  // the map frame is the odom frame
+  }
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
   Output Step(double now_s, msgs::TeamStepStats* stats);
   const msgs::ObjectMap& objects() const { return objects_; }  // after the last step
@@ -150,6 +153,7 @@ class ObjectMapperStage {
   std::uint64_t seen_poses_version_ = 0;
   std::uint64_t version_ = 0;
   msgs::ObjectMap clusters_;  // the mapper's objects, before the landmarks are appended
+  double map_heading_rad_ = msgs::kUnknownHeading;
   std::uint64_t seen_landmarks_version_ = 0;
   msgs::ObjectMap objects_;
   msgs::ObjectMap last_published_;
@@ -405,6 +409,10 @@ struct OptimizerStageOptions {
   double map_margin_m = 2.0;
   int map_min_points = 3;
   objects::CoverageOptions map_coverage;  // 20 m, +-65 deg
+  // Absolute headings (msgs::ObjectMap::map_heading_rad, both maps): a teammate whose loops
+  // imply a rotation more than this from the headings' difference is not placed (a grid
+  // turned 180 deg), nor placed through a teammate's chain. <= 0: off.
+  double max_heading_gap_rad = 0.5236;  // 30 deg
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
@@ -413,6 +421,9 @@ struct MapCheck {
   objects::PointSupport support;    // teammate objects on own points (decides)
   objects::MapAgreement agreement;  // objects against objects, both ways (logged)
   bool contradicted = false;        // the teammate is not placed
+  // T_own_teammate's rotation minus the maps' headings' difference (NaN: a heading unknown);
+  // beyond max_heading_gap_rad the teammate is not placed (contradicted).
+  double heading_gap_rad = msgs::kUnknownHeading;
 };
 
 struct TeamEstimate {

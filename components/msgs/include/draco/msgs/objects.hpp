@@ -32,6 +32,10 @@ struct ObjectMap {
   int robot_id = 0;
   double time_s = 0.0;
   std::vector<Object> objects;
+  // Absolute heading of the map frame's x axis (counter-clockwise from the AHRS's reference,
+  // east for the simulator): the AHRS's first reading. NaN: unknown (an AHRS without an
+  // absolute reference). Two maps' headings bound the rotation between them.
+  double map_heading_rad = kUnknownHeading;
 };
 
 enum class MatchStatus : std::uint8_t {
@@ -43,6 +47,7 @@ enum class MatchStatus : std::uint8_t {
   kContradicted,       // negative evidence: inliers - miss_weight * misses < min_inliers
   kAmbiguous,          // a distinct runner-up hypothesis scores close to the best
   kUnconfirmed,        // (MatchTracker) the transform has not won often enough yet
+  kHeadingMismatch,    // the answer turns one map against the other beyond the headings' bound
 };
 
 struct ObjectPair {
@@ -97,6 +102,8 @@ inline const char* MatchStatusName(MatchStatus status) {
       return "ambiguous";
     case MatchStatus::kUnconfirmed:
       return "unconfirmed";
+    case MatchStatus::kHeadingMismatch:
+      return "heading mismatch";
   }
   return "unknown";
 }

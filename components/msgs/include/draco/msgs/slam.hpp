@@ -9,9 +9,13 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace draco::msgs {
+
+// A heading nobody knows (msgs::ObjectMap::map_heading_rad and its sources).
+inline constexpr double kUnknownHeading = std::numeric_limits<double>::quiet_NaN();
 
 struct Point2 {
   double x_m = 0.0;
@@ -46,6 +50,9 @@ struct DeadReckoning {
   Covariance3 covariance_prev_body{};
   std::array<double, 2> velocity_body_mps{0.0, 0.0};  // velocity used for this step
   bool dvl_ok = true;  // false while velocity is held or decayed (dropout or spike)
+  // Absolute heading of the odom frame's x axis (the AHRS reading taken as odom yaw 0); NaN
+  // when the AHRS has no absolute reference.
+  double odom_heading_rad = kUnknownHeading;
 };
 
 // A keyframe: the feature points of one ping with the dead-reckoning pose at the ping time
@@ -58,6 +65,7 @@ struct Keyframe {
   std::vector<Point2> points_body;  // feature points in the body frame
   Pose2 T_prevkf_kf;                // dead-reckoning increment (identity for index 0)
   Covariance3 covariance_prevkf_kf{};
+  double odom_heading_rad = kUnknownHeading;  // msgs::DeadReckoning::odom_heading_rad
 };
 
 // A relative-pose factor between two keyframes from sequential scan matching (or dead

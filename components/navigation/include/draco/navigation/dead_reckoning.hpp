@@ -16,7 +16,12 @@
 namespace draco::navigation {
 
 struct DeadReckoningOptions {
-  bool yaw_relative_to_first = true;          // odom frame yaw 0 = the AHRS's first reading
+  bool yaw_relative_to_first = true;  // odom frame yaw 0 = the AHRS's first reading
+  // The AHRS yaw is referenced to the same direction on every robot (a magnetometer or a
+  // gyrocompass: the simulator's and the VN-100's): the odom frame's heading is reported
+  // (msgs::DeadReckoning::odom_heading_rad) so teammates can bound the rotation between maps.
+  // false for a gyro-only AHRS whose yaw starts anywhere.
+  bool absolute_heading = true;
   double max_speed_mps = 0.9;                 // horizontal speeds above this are spikes
   double hold_time_s = 2.0;                   // hold the last good velocity this long...
   double decay_time_s = 5.0;                  // ...then decay it with this time constant

@@ -52,7 +52,10 @@ class KeyframeSelector {
                             const msgs::Pose2& T_body_sensor = {})
       : options_(options), T_body_sensor_(T_body_sensor) {}
 
-  void AddDeadReckoning(const msgs::DeadReckoning& dr) { history_.Add(dr); }
+  void AddDeadReckoning(const msgs::DeadReckoning& dr) {
+    odom_heading_rad_ = dr.odom_heading_rad;
+    history_.Add(dr);
+  }
   void AddFeatures(const msgs::SonarFeatures& features) { pending_.push_back(features); }
   // Decides every pending cloud that dead reckoning has reached; returns new keyframes.
   std::vector<msgs::Keyframe> Poll();
@@ -65,6 +68,7 @@ class KeyframeSelector {
   std::deque<msgs::SonarFeatures> pending_;
   std::optional<msgs::Keyframe> last_;
   int dropped_ = 0;
+  double odom_heading_rad_ = msgs::kUnknownHeading;
 };
 
 }  // namespace draco::navigation

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "draco/msgs/objects.hpp"
@@ -76,6 +77,12 @@ struct MatcherOptions {
   // Off by default: 0.6 costs right answers (airplane 10 instead of 12; synthetic worlds
   // 34/50 instead of 49/50 at p = 0.4) and removes no wrong one at 5 inliers.
   double max_ambiguity_ratio = 0.0;
+  // Absolute headings (ObjectMap::map_heading_rad, from each robot's AHRS): when both maps
+  // carry one, every hypothesis whose rotation differs from the headings' difference by more
+  // than this is dropped, and an answer that still does is kHeadingMismatch. A grid turned
+  // 180 deg or 90 deg fits its piles again; the compass says which way is north. The AHRS's
+  // heading error (a few deg, plus a few near steel) stays well inside. <= 0: off.
+  double max_heading_gap_rad = 0.5236;  // 30 deg
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
   // Verification (with miss_weight or the ambiguity test): hypotheses from pairs of each a
@@ -155,6 +162,12 @@ std::vector<double> PrincipalEigenvector(const SparseAffinity& affinity,
 std::vector<double> AssignmentWeights(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                       const MatcherOptions& options, int* num_candidates = nullptr,
                                       int* num_entries = nullptr);
+
+// The rotation of b's map frame in a's that the maps' absolute headings imply
+// (ObjectMap::map_heading_rad); nullopt when either is unknown.
+std::optional<double> HeadingYawPrior(const msgs::ObjectMap& a, const msgs::ObjectMap& b);
+// True when there is no prior, the test is off (max_gap_rad <= 0) or |yaw - prior| <= max_gap.
+bool HeadingAllows(const std::optional<double>& yaw_prior_rad, double yaw_rad, double max_gap_rad);
 
 // Matches teammate map b against own map a: T_a_b, pairs, inliers and a confidence, or the
 // reason for no match.
