@@ -499,13 +499,13 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::ObjectMapUpdat
     if (!d.Options() || !d.Header(&out.header) || !d.U32(kVersionOrder, &out.version, "version") ||
         !d.U32(kVersionOrder, &out.base_version, "base_version"))
       return false;
-    std::uint64_t heading = 0, q = 0;
+    std::uint64_t heading = 0, heading_q = 0;
     if (!d.U(1, &heading, "map heading flag")) return false;
     if (heading) {
-      if (!d.U(kHeadingBits, &q, "map heading")) return false;
+      if (!d.U(kHeadingBits, &heading_q, "map heading")) return false;
       out.map_heading_rad =
-          static_cast<double>(q) * 2.0 * std::numbers::pi / (1 << kHeadingBits) -
-          (q >= (1u << (kHeadingBits - 1)) ? 2.0 * std::numbers::pi : 0.0);  // (-pi, pi]
+          static_cast<double>(heading_q) * 2.0 * std::numbers::pi / (1 << kHeadingBits) -
+          (heading_q >= (1u << (kHeadingBits - 1)) ? 2.0 * std::numbers::pi : 0.0);  // (-pi, pi]
     }
     if (!d.Count(b.max_objects, &n, "upserts")) return false;
     if (n > 0) {
