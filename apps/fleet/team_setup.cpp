@@ -65,6 +65,7 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
       p + "filter.robot_id=" + std::to_string(s.robot_id),
       p + "optimizer.robot_id=" + std::to_string(s.robot_id),
       p + "mapper.prefix=" + name + ".",
+      p + "matcher.prefix=" + name + ".",
       p + "exchange.prefix=" + name + ".",
       p + "filter.prefix=" + name + ".",
       p + "optimizer.prefix=" + name + ".",

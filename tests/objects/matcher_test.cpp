@@ -217,9 +217,10 @@ RowScene MakeRow(std::uint64_t seed) {
 
 // A 4 x 3 grid of identical piles (6 m by 4 m spacing) seen whole by both robots: it fits
 // itself turned 180 deg about its centre, so the object graphs cannot tell the truth from the
-// flip. The maps' absolute headings (each robot's AHRS) can: an answer is one whose rotation
-// they allow (when the assignment holds only the other fit, there is no answer); a rotation
-// the grid has no fit for (90 deg) gives no match at all.
+// flip. The maps' absolute headings (each robot's AHRS) can: the answer is the one whose
+// rotation they allow (when the spectral assignment holds only the other fit, translation
+// votes under the headings' rotation find it); a rotation the grid has no fit for (90 deg)
+// gives no match at all.
 TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
   std::vector<msgs::Object> world;
   for (int i = 0; i < 4; ++i) {
@@ -255,11 +256,12 @@ TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
   // Headings that say b's map is turned the other way round: the flip, not the truth.
   b.map_heading_rad = 2.1 + M_PI;
   const auto turned = MatchObjectMaps(a, b, o);
-  if (turned.status == MatchStatus::kMatched) {
-    EXPECT_TRUE(Close(turned.T_a_b, flip, 1.0, 3.0));
-  } else {
-    EXPECT_EQ(turned.status, MatchStatus::kTooFewInliers);  // the assignment holds the truth
-  }
+  ASSERT_EQ(turned.status, MatchStatus::kMatched);
+  EXPECT_TRUE(Close(turned.T_a_b, flip, 1.0, 3.0));
+  EXPECT_EQ(turned.num_inliers, 12);
+  MatcherOptions no_votes = o;
+  no_votes.heading_votes = false;  // the spectral answer alone: the truth, refused
+  EXPECT_EQ(MatchObjectMaps(a, b, no_votes).status, MatchStatus::kTooFewInliers);
   // A quarter turn: no hypothesis the headings allow fits five piles.
   b.map_heading_rad = 2.1 + 0.5 * M_PI;
   EXPECT_NE(MatchObjectMaps(a, b, o).status, MatchStatus::kMatched);

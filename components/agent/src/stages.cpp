@@ -364,6 +364,8 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
     auto match = objects::MatchObjectMaps(own, mate.objects, options_.matcher);
     match.robot_a = options_.robot_id;
     match.robot_b = robot;
+    attempts_.push_back({now_s, static_cast<int>(own.objects.size()),
+                         static_cast<int>(mate.objects.objects.size()), match});
     if (match.status != msgs::MatchStatus::kMatched) continue;
     ++st->matches_found;
     auto& g = matches_.guesses[robot];

@@ -220,6 +220,9 @@ class GraphMatcherComponent final : public graph::Component {
                {.doc = "hypotheses turned further than this from the maps' absolute headings' "
                        "difference are dropped (<= 0: off)",
                 .unit = "rad"});
+    spec.Param("prefix", &prefix_,
+               {.doc = "output file name prefix, e.g. the robot name; writes "
+                       "<prefix>matches.csv (every matching tried)"});
   }
   Status Start(Context&) override {
     stage_ = std::make_unique<GraphMatcherStage>(o_);
@@ -243,12 +246,29 @@ class GraphMatcherComponent final : public graph::Component {
       }
       out.guesses = stage_->matches().guesses;
       matches_.PublishAt(own.stamp, std::move(out));
+      for (const auto& a : stage_->TakeAttempts()) {
+        const auto& m = a.match;
+        char line[240];
+        std::snprintf(line, sizeof line, "%.3f,%d,%s,%.4f,%.4f,%.6f,%d,%d,%.3f,%d,%d\n", a.time_s,
+                      m.robot_b, msgs::MatchStatusName(m.status), m.T_a_b.x_m, m.T_a_b.y_m,
+                      m.T_a_b.yaw_rad, m.num_inliers, m.num_ransac_inliers, m.ambiguity,
+                      a.own_objects, a.teammate_objects);
+        attempts_ += line;
+      }
     }
     return Status::Ok();
+  }
+  Status Stop(Context& ctx) override {
+    if (!stage_) return Status::Ok();
+    return WriteFiles(ctx, prefix_, {{"matches.csv", attempts_}});
   }
 
  private:
   GraphMatcherStageOptions o_;
+  std::string prefix_;
+  std::string attempts_ =
+      "time_s,teammate_robot,status,x_m,y_m,yaw_rad,inliers,ransac_inliers,ambiguity,"
+      "own_objects,teammate_objects\n";
   std::unique_ptr<GraphMatcherStage> stage_;
   Absorber in_;
   graph::In<msgs::OwnObjectMap> objects_;

@@ -34,6 +34,7 @@
 #include <optional>
 #include <set>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "draco/consistency/filter.hpp"
@@ -203,6 +204,13 @@ class GraphMatcherStage {
                                       std::uint64_t own_version, msgs::TeamStepStats* stats);
   const msgs::MapMatches& matches() const { return matches_; }  // guesses after the last step
   const std::map<int, Teammate>& teammates() const { return mates_; }
+  // Every matching tried since the last call (any status), oldest first.
+  struct Attempt {
+    double time_s = 0.0;
+    int own_objects = 0, teammate_objects = 0;
+    msgs::ObjectMatch match;  // robot_b: the teammate
+  };
+  std::vector<Attempt> TakeAttempts() { return std::exchange(attempts_, {}); }
 
  private:
   // Teammates without an own match, placed through a matched teammate's shared estimate;
@@ -225,6 +233,7 @@ class GraphMatcherStage {
     int agreeing = 1;  // consecutive heartbeats within chain_agree_* of each other
   };
   std::map<int, std::map<int, Shared>> shared_;  // sender -> robot -> its estimate
+  std::vector<Attempt> attempts_;
 };
 
 // ------------------------------------------------------------------------- 3. scans

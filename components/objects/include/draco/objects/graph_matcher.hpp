@@ -83,6 +83,20 @@ struct MatcherOptions {
   // 180 deg or 90 deg fits its piles again; the compass says which way is north. The AHRS's
   // heading error (a few deg, plus a few near steel) stays well inside. <= 0: off.
   double max_heading_gap_rad = 0.5236;  // 30 deg
+  // With both headings known and no answer from the paths above: translation votes. Each
+  // pair of objects of similar shape (min_shape_similarity) votes for the translation that
+  // lays them on each other, for rotations within +-heading_vote_turn_rad of the headings'
+  // difference in heading_vote_step_rad steps (the AHRS's error, not the whole gap); the
+  // best-supported translation (b objects within heading_vote_inlier_m of an a object: below
+  // half a pile spacing, so a grid shifted by half a spacing does not count as fitting) needs
+  // min_inliers and a distinct runner-up below max_vote_ambiguity of its support beyond a
+  // two-point sample (a grid shifted by one spacing: no answer). false: off.
+  bool heading_votes = true;
+  double heading_vote_turn_rad = 0.1745;  // 10 deg
+  double heading_vote_step_rad = 0.0349;  // 2 deg
+  double heading_vote_cell_m = 2.0;
+  double heading_vote_inlier_m = 1.5;
+  double max_vote_ambiguity = 0.8;
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
   // Verification (with miss_weight or the ambiguity test): hypotheses from pairs of each a
