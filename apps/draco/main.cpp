@@ -13,9 +13,11 @@
 #include <fstream>
 #include <iostream>
 
+#include "app_version.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -43,6 +45,7 @@ std::string DefaultRunDir(const std::string& graph_name) {
 
 int main(int argc, char** argv) {
   CLI::App app{"draco: distributed sonar SLAM runtime"};
+  app.set_version_flag("--version", draco::app::VersionLine("draco"));
   app.require_subcommand(1);
 
   app.add_subcommand("list", "list every registered component with ports and parameters");
@@ -102,6 +105,9 @@ int main(int argc, char** argv) {
     if (until_s >= 0.0) options.until = draco::graph::Time::FromSeconds(until_s);
     options.output_dir = out_dir.empty() ? DefaultRunDir(graph->settings.name) : out_dir;
     std::filesystem::create_directories(options.output_dir);
+    auto run_info = draco::app::MakeRunInfo("draco", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(options.output_dir, run_info);
     options.stop_requested = &g_stop;
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);

@@ -28,6 +28,7 @@
 #include <map>
 #include <thread>
 
+#include "app_version.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -35,6 +36,7 @@
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
 #include "process.hpp"
+#include "run_info.hpp"
 #include "team_setup.hpp"
 
 namespace {
@@ -244,6 +246,7 @@ int main(int argc, char** argv) {
   app.add_option("--rate", o.rate,
                  "dds: pace the daemons at N x real time (0: as fast as lock-step allows)");
   app.add_option("--timeout-s", o.timeout_s, "dds: stop the daemons after this many seconds");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-fleet"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -258,6 +261,10 @@ int main(int argc, char** argv) {
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
     fs::create_directories(o.out);
+    auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
+    run_info.AddFile("graph", o.graph);
+    if (mode != "inproc" && !o.dds_config.empty()) run_info.AddFile("dds_config", o.dds_config);
+    draco::app::WriteRunInfo(o.out, run_info);
     std::string report =
         "# Fleet run: " + info.name + "\n\nMission `" + o.mission + "`, graph `" + o.graph + "`.\n";
     std::map<std::string, draco::report::TeamResult> results;

@@ -18,10 +18,12 @@
 #include <iostream>
 #include <sstream>
 
+#include "app_version.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "run_info.hpp"
 #include "team_setup.hpp"
 
 namespace {
@@ -63,6 +65,7 @@ int main(int argc, char** argv) {
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
   app.add_flag("--quiet", quiet, "no progress line");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-robot"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -99,6 +102,12 @@ int main(int argc, char** argv) {
     setup.robot_id = static_cast<int>(it - setup.team.begin());
     setup.lockstep = !no_lockstep && setup.transport == "dds";
     std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    if (setup.transport == "dds" && !setup.dds_config.empty()) {
+      run_info.AddFile("dds_config", setup.dds_config);
+    }
+    draco::app::WriteRunInfo(out_dir, run_info, robot + ".");
 
     draco::graph::LoadOptions load;
     load.overrides = draco::fleet_app::RobotOverrides(setup, "");

@@ -21,12 +21,14 @@
 #include <map>
 #include <numbers>
 
+#include "app_version.hpp"
 #include "draco/frontend/pipeline.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/report/figures.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -165,6 +167,7 @@ int main(int argc, char** argv) {
   app.add_option("--track-votes", over_time.tracker.min_votes, "tracker: wins needed");
   app.add_option("--track-dominance", over_time.tracker.dominance,
                  "tracker: votes over every other track's");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-frontend-eval"));
   CLI11_PARSE(app, argc, argv);
   if (landmarks >= 0) {
     mapper.landmark_min_sightings = landmarks;
@@ -185,6 +188,9 @@ int main(int argc, char** argv) {
     const auto info = draco::recording::LoadMissionInfo(mission);
     if (out_dir.empty()) out_dir = "runs/frontend-" + info.name;
     std::filesystem::create_directories(out_dir + "/slam");
+    auto run_info = draco::app::MakeRunInfo("draco-frontend-eval", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     const bool airplane = info.world.find("airplane") != std::string::npos ||
                           info.name.find("airplane") != std::string::npos;
     if (airplane) {

@@ -13,11 +13,13 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app_version.hpp"
 #include "draco/eval/trajectory.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "run_info.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -40,6 +42,7 @@ int main(int argc, char** argv) {
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--max-ratio", max_ratio,
                  "exit 2 when a robot's SLAM ATE exceeds this fraction of dead reckoning's");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-local-slam"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -48,6 +51,9 @@ int main(int argc, char** argv) {
     const auto info = draco::recording::LoadMissionInfo(mission_dir);
     if (out_dir.empty()) out_dir = "runs/local-slam-" + info.name;
     std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-local-slam", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     std::vector<std::string> robots;
     for (const auto& r : info.robots) {
       if (robot.empty() || r.name == robot) robots.push_back(r.name);

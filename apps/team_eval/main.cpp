@@ -30,6 +30,7 @@
 #include <tuple>
 #include <vector>
 
+#include "app_version.hpp"
 #include "draco/consistency/filter.hpp"
 #include "draco/consistency/graph_pose_source.hpp"
 #include "draco/consistency/pairwise.hpp"
@@ -42,6 +43,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/team/team_pgo.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -234,6 +236,7 @@ int main(int argc, char** argv) {
   app.add_option("--inject-directions", inject.directions,
                  "correlated: 0 any direction, N one of N evenly spaced (4: +-x, +-y)");
   app.add_option("--inject-seed", inject.seed, "robustness test: seed");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-team-eval"));
   CLI11_PARSE(app, argc, argv);
   const bool graph_covariance = pose_covariance == "graph";
   inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
@@ -259,6 +262,10 @@ int main(int argc, char** argv) {
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
     if (out_dir.empty()) out_dir = "runs/team-" + info.name;
+    std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-team-eval", argc, argv);
+    run_info.AddFile("graph", slam.graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     const bool airplane = info.world.find("airplane") != std::string::npos ||
                           info.name.find("airplane") != std::string::npos;
     if (airplane) {
