@@ -14,6 +14,7 @@
 #include <iostream>
 
 #include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -24,8 +25,6 @@ namespace {
 std::atomic<bool> g_stop{false};
 
 extern "C" void OnSignal(int) { g_stop = true; }
-
-const char* kDefaultGraph = DRACO_SOURCE_DIR "/config/graphs/default.yaml";
 
 std::unique_ptr<draco::graph::Graph> Load(const std::string& path,
                                           const std::vector<std::string>& overrides) {
@@ -66,7 +65,8 @@ int main(int argc, char** argv) {
   int threads = 0;
   double until_s = -1.0;
   auto* run = app.add_subcommand("run", "run a graph");
-  run->add_option("graph", graph_path, "graph YAML (default: config/graphs/default.yaml)");
+  run->add_option("graph", graph_path,
+                  "graph YAML (default: graphs/default.yaml from the data search path)");
   run->add_option("--set", overrides, "override a parameter: component_id.param=value");
   run->add_option("--out", out_dir, "run folder (default: runs/<graph>-<time>)");
   run->add_option("--executor", executor, "deterministic or threaded (default: the graph's)")
@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
       std::cout << draco::graph::ToDot(*Load(graph_path, overrides));
       return 0;
     }
-    if (graph_path.empty()) graph_path = kDefaultGraph;
+    if (graph_path.empty()) graph_path = draco::app::ResolveDataFile("graphs/default.yaml").path;
     auto graph = Load(graph_path, overrides);
     if (!executor.empty()) graph->settings.executor = executor;
     draco::graph::RunOptions options;

@@ -29,6 +29,7 @@
 #include <thread>
 
 #include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -51,8 +52,8 @@ extern "C" void OnSignal(int) { g_stop = true; }
 struct Options {
   std::string mission;
   std::string out;
-  std::string graph = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
-  std::string dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
+  std::string graph;       // default: graphs/robot.yaml from the data search path
+  std::string dds_config;  // default: cyclonedds.xml from the data search path
   int domain = 0;
   std::vector<std::string> overrides;  // applied to every robot: component.param=value
   std::string kill;                    // robot to kill (dds)
@@ -235,7 +236,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", o.out, "output folder (default runs/fleet-<mission>)");
   app.add_option("--mode", mode, "dds, inproc or both")
       ->check(CLI::IsMember({"dds", "inproc", "both"}));
-  app.add_option("--graph", o.graph, "robot graph YAML");
+  app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
   app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
   app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML");
   app.add_option("--set", o.overrides, "override for every robot: component_id.param=value");
@@ -260,6 +261,9 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
+    o.graph = draco::app::ResolveDataFile("graphs/robot.yaml", o.graph).path;
+    if (mode != "inproc")
+      o.dds_config = draco::app::ResolveDataFile("cyclonedds.xml", o.dds_config).path;
     fs::create_directories(o.out);
     auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
     run_info.AddFile("graph", o.graph);

@@ -19,6 +19,7 @@
 #include <sstream>
 
 #include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -42,7 +43,6 @@ int main(int argc, char** argv) {
   double rate = 0.0;
   bool no_lockstep = false;
   bool quiet = false;
-  setup.dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
   auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder");
   auto* bag_opt =
       app.add_option("--bag", setup.bag, "ROS 1 bag of this robot (instead of --mission)")
@@ -55,12 +55,14 @@ int main(int argc, char** argv) {
   bag_opt->needs(team_opt);
   app.add_option("--robot", robot, "robot name in the mission (or in --team)")->required();
   app.add_option("--graph", graph_path,
-                 "robot graph YAML (default config/graphs/robot.yaml, robot-bag.yaml with --bag)");
+                 "robot graph YAML (default graphs/robot.yaml, graphs/robot-bag.yaml with --bag, "
+                 "from the data search path)");
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
   app.add_option("--domain", setup.domain_id, "DDS domain id")->check(CLI::Range(0, 230));
-  app.add_option("--dds-config", setup.dds_config, "Cyclone DDS XML (loopback by default)");
+  app.add_option("--dds-config", setup.dds_config,
+                 "Cyclone DDS XML (default: cyclonedds.xml from the data search path)");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
@@ -82,7 +84,7 @@ int main(int argc, char** argv) {
       setup.world = info.world;
       source = "mission " + setup.mission_dir;
       if (out_dir.empty()) out_dir = "runs/robot-" + info.name;
-      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
+      graph_path = draco::app::ResolveDataFile("graphs/robot.yaml", graph_path).path;
     } else {
       std::stringstream names(team_list);
       for (std::string n; std::getline(names, n, ',');) {
@@ -90,7 +92,7 @@ int main(int argc, char** argv) {
       }
       source = "--team " + team_list;
       if (out_dir.empty()) out_dir = "runs/robot-" + robot;
-      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot-bag.yaml";
+      graph_path = draco::app::ResolveDataFile("graphs/robot-bag.yaml", graph_path).path;
     }
     const auto it = std::find(setup.team.begin(), setup.team.end(), robot);
     if (it == setup.team.end()) {
@@ -101,6 +103,9 @@ int main(int argc, char** argv) {
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
     setup.lockstep = !no_lockstep && setup.transport == "dds";
+    if (setup.transport == "dds") {
+      setup.dds_config = draco::app::ResolveDataFile("cyclonedds.xml", setup.dds_config).path;
+    }
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);
     run_info.AddFile("graph", graph_path);

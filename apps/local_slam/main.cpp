@@ -14,6 +14,7 @@
 #include <iostream>
 
 #include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/eval/trajectory.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
@@ -31,13 +32,13 @@ int main(int argc, char** argv) {
   CLI::App app{"draco-local-slam: single-robot local SLAM replay with ATE"};
   std::string mission_dir;
   std::string robot;
-  std::string graph_path = DRACO_SOURCE_DIR "/config/graphs/local-slam.yaml";
+  std::string graph_path;  // default: graphs/local-slam.yaml from the data search path
   std::string out_dir;
   std::vector<std::string> overrides;
   double max_ratio = 0.0;
   app.add_option("mission", mission_dir, "recorded mission folder")->required();
   app.add_option("--robot", robot, "one robot (default: every robot of the mission)");
-  app.add_option("--graph", graph_path, "local-SLAM graph YAML");
+  app.add_option("--graph", graph_path, "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--out", out_dir, "run folder (default: runs/local-slam-<mission>)");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--max-ratio", max_ratio,
@@ -49,6 +50,7 @@ int main(int argc, char** argv) {
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission_dir);
+    graph_path = draco::app::ResolveDataFile("graphs/local-slam.yaml", graph_path).path;
     if (out_dir.empty()) out_dir = "runs/local-slam-" + info.name;
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-local-slam", argc, argv);

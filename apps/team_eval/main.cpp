@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/consistency/filter.hpp"
 #include "draco/consistency/graph_pose_source.hpp"
 #include "draco/consistency/pairwise.hpp"
@@ -160,7 +161,6 @@ int main(int argc, char** argv) {
   std::string mission;
   std::string out_dir;
   fe::SlamRunOptions slam;
-  slam.graph_path = DRACO_SOURCE_DIR "/config/graphs/local-slam.yaml";
   bool oracle = false;
   reg::SelectionOptions sel;
   reg::RegistrationOptions ro;
@@ -177,7 +177,8 @@ int main(int argc, char** argv) {
   bool shared_transforms = true;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
-  app.add_option("--graph", slam.graph_path, "local-SLAM graph YAML");
+  app.add_option("--graph", slam.graph_path,
+                 "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--set", slam.overrides, "local-SLAM graph override component.param=value");
   app.add_flag("--oracle-matching", oracle,
                "where matching is not right, use the ground-truth map-to-map transform (and true "
@@ -261,6 +262,7 @@ int main(int argc, char** argv) {
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
+    slam.graph_path = draco::app::ResolveDataFile("graphs/local-slam.yaml", slam.graph_path).path;
     if (out_dir.empty()) out_dir = "runs/team-" + info.name;
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-team-eval", argc, argv);
