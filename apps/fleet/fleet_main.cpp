@@ -43,7 +43,6 @@
 namespace {
 namespace fs = std::filesystem;
 using draco::fleet_app::RobotSetup;
-using draco::fleet_app::SelfDir;
 using draco::fleet_app::Spawn;
 
 std::atomic<bool> g_stop{false};
@@ -114,7 +113,7 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
 // One daemon per robot over DDS; optionally kills one mid-mission and restarts it.
 int RunDds(const Options& o, const std::vector<std::string>& team, const std::string& out_dir) {
   fs::create_directories(out_dir);
-  const auto robot_bin = (SelfDir() / "draco-robot").string();
+  const auto robot_bin = draco::fleet_app::SiblingApp("draco-robot", "fleet").string();
   if (!fs::exists(robot_bin)) {
     std::cerr << "draco-fleet: " << robot_bin << " not found (build the draco-robot target)\n";
     return 1;

@@ -34,7 +34,6 @@ namespace {
 namespace fs = std::filesystem;
 
 using draco::fleet_app::RunAndWait;
-using draco::fleet_app::SelfDir;
 
 std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
   std::vector<std::uint64_t> out;
@@ -255,9 +254,9 @@ int main(int argc, char** argv) {
       std::cerr << "draco-worlds: nothing to run (give --seeds and/or --mission)\n";
       return 2;
     }
-    const fs::path bin = SelfDir();
-    const std::string sim = (bin / "../sim/draco-sim").lexically_normal().string();
-    const std::string fleet = (bin / "../fleet/draco-fleet").lexically_normal().string();
+    // Next to draco-worlds when installed, in their build-tree folders otherwise.
+    const std::string sim = draco::fleet_app::SiblingApp("draco-sim", "sim").string();
+    const std::string fleet = draco::fleet_app::SiblingApp("draco-fleet", "fleet").string();
     for (const auto& b : {sim, fleet}) {
       if (!fs::exists(b)) throw std::runtime_error(b + " not found (build it)");
     }
