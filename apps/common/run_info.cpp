@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <fstream>
 #include <stdexcept>
@@ -75,6 +76,10 @@ RunInfo MakeRunInfo(const std::string& app, int argc, const char* const* argv) {
   info.started_utc = stamp;
   char host[256] = {};
   if (::gethostname(host, sizeof host - 1) == 0) info.host = host;
+  for (const char* name :
+       {"DRACO_DATA_DIR", "XDG_CONFIG_HOME", "CYCLONEDDS_URI", "DRACO_DDS_PEERS"}) {
+    if (const char* value = std::getenv(name)) info.environment.emplace_back(name, value);
+  }
   return info;
 }
 
@@ -121,13 +126,18 @@ std::string RunInfoJson(const RunInfo& info) {
   field("working_directory", info.working_directory);
   field("started_utc", info.started_utc);
   field("host", info.host);
-  j += "  \"files\": {";
-  for (std::size_t i = 0; i < info.files.size(); ++i) {
-    j += (i ? ",\n    " : "\n    ") + JsonString(info.files[i].first) + ": " +
-         JsonString(info.files[i].second);
-  }
-  j += info.files.empty() ? "}\n}\n" : "\n  }\n}\n";
-  return j;
+  auto object = [&](const char* key, const std::vector<std::pair<std::string, std::string>>& kv,
+                    bool last) {
+    j += "  " + JsonString(key) + ": {";
+    for (std::size_t i = 0; i < kv.size(); ++i) {
+      j += (i ? ",\n    " : "\n    ") + JsonString(kv[i].first) + ": " + JsonString(kv[i].second);
+    }
+    j += kv.empty() ? "}" : "\n  }";
+    j += last ? "\n" : ",\n";
+  };
+  object("environment", info.environment, false);
+  object("files", info.files, true);
+  return j + "}\n";
 }
 
 fs::path WriteRunInfo(const fs::path& dir, const RunInfo& info, const std::string& prefix) {

@@ -16,6 +16,9 @@ struct RunInfo {
   std::string working_directory;
   std::string started_utc;  // "2024-05-01T12:00:00Z"
   std::string host;
+  // The variables that choose data and DDS settings, those set: DRACO_DATA_DIR,
+  // XDG_CONFIG_HOME, CYCLONEDDS_URI, DRACO_DDS_PEERS.
+  std::vector<std::pair<std::string, std::string>> environment;
   // Data files the run used, in the order added: role ("graph", "dds_config"), path.
   std::vector<std::pair<std::string, std::string>> files;
 
@@ -23,7 +26,8 @@ struct RunInfo {
   void AddFile(const std::string& role, const std::filesystem::path& path);
 };
 
-// The RunInfo of this process: app name, argv, working directory, start time, host.
+// The RunInfo of this process: app name, argv, working directory, start time, host,
+// environment.
 RunInfo MakeRunInfo(const std::string& app, int argc, const char* const* argv);
 
 // The command line as one string a POSIX shell would split back into argv (arguments with
@@ -31,7 +35,8 @@ RunInfo MakeRunInfo(const std::string& app, int argc, const char* const* argv);
 std::string ShellQuote(const std::vector<std::string>& argv);
 
 // The JSON text of run_info.json: app, version, project_version, git_describe, command_line
-// (ShellQuote), argv, executable, working_directory, started_utc, host, files {role: path}.
+// (ShellQuote), argv, executable, working_directory, started_utc, host, environment
+// {name: value}, files {role: path}.
 std::string RunInfoJson(const RunInfo& info);
 
 // Writes dir/<prefix>run_info.json atomically (temporary file + rename) and returns its path.

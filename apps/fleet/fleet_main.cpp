@@ -1,6 +1,7 @@
 // draco-fleet MISSION: runs a whole team on a recorded mission and reports it.
 //   --mode dds     one draco-robot daemon per robot, separate processes over Cyclone DDS on
-//                  loopback (config/cyclonedds.xml), in lock-step on the mission clock
+//                  loopback (dds/loopback.xml unless --dds-config or $CYCLONEDDS_URI say
+//                  otherwise), in lock-step on the mission clock
 //   --mode inproc  every robot in one process over the in-process bus (deterministic replay)
 //   --mode both    (default) both, then compares them: accepted inter-robot loops and team
 //                  ATE must agree within 10 %
@@ -30,6 +31,7 @@
 
 #include "app_version.hpp"
 #include "data_path.hpp"
+#include "dds_profile.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -52,7 +54,7 @@ struct Options {
   std::string mission;
   std::string out;
   std::string graph;       // default: graphs/robot.yaml from the data search path
-  std::string dds_config;  // default: cyclonedds.xml from the data search path
+  std::string dds_config;  // --dds-config as given; then the file chosen ("": $CYCLONEDDS_URI)
   int domain = 0;
   std::vector<std::string> overrides;  // applied to every robot: component.param=value
   std::string kill;                    // robot to kill (dds)
@@ -119,12 +121,22 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
     return 1;
   }
   auto args_for = [&](const std::string& robot) {
-    std::vector<std::string> a = {robot_bin,      "--mission",  o.mission,
-                                  "--robot",      robot,        "--out",
-                                  out_dir,        "--domain",   std::to_string(o.domain),
-                                  "--dds-config", o.dds_config, "--graph",
-                                  o.graph,        "--rate",     std::to_string(o.rate),
+    std::vector<std::string> a = {robot_bin,
+                                  "--mission",
+                                  o.mission,
+                                  "--robot",
+                                  robot,
+                                  "--out",
+                                  out_dir,
+                                  "--domain",
+                                  std::to_string(o.domain),
+                                  "--graph",
+                                  o.graph,
+                                  "--rate",
+                                  std::to_string(o.rate),
                                   "--quiet"};
+    // No --dds-config: the daemons read the same $CYCLONEDDS_URI.
+    if (!o.dds_config.empty()) a.insert(a.end(), {"--dds-config", o.dds_config});
     for (const auto& x : o.overrides) {
       a.push_back("--set");
       a.push_back(x);
@@ -237,7 +249,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"dds", "inproc", "both"}));
   app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
   app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
-  app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML");
+  app.add_option("--dds-config", o.dds_config,
+                 "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
+                 "$CYCLONEDDS_URI when set, else loopback)");
   app.add_option("--set", o.overrides, "override for every robot: component_id.param=value");
   app.add_option("--kill", o.kill, "dds: kill this robot's daemon (SIGKILL) mid-mission");
   app.add_option("--kill-after-s", o.kill_after_s, "... this many wall seconds after start");
@@ -261,8 +275,11 @@ int main(int argc, char** argv) {
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
     o.graph = draco::app::ResolveDataFile("graphs/robot.yaml", o.graph).path;
-    if (mode != "inproc")
-      o.dds_config = draco::app::ResolveDataFile("cyclonedds.xml", o.dds_config).path;
+    if (mode != "inproc") {
+      const auto dds = draco::app::ChooseDdsConfigFromEnvironment(o.dds_config);
+      o.dds_config = dds.file;
+      std::printf("draco-fleet: %s\n", dds.Describe().c_str());
+    }
     fs::create_directories(o.out);
     auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
     run_info.AddFile("graph", o.graph);

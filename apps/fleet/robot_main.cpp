@@ -20,6 +20,7 @@
 
 #include "app_version.hpp"
 #include "data_path.hpp"
+#include "dds_profile.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -37,6 +38,7 @@ int main(int argc, char** argv) {
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path;
+  std::string dds_config;  // --dds-config as given
   std::string team_list;
   std::string out_dir;
   std::vector<std::string> overrides;
@@ -61,8 +63,9 @@ int main(int argc, char** argv) {
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
   app.add_option("--domain", setup.domain_id, "DDS domain id")->check(CLI::Range(0, 230));
-  app.add_option("--dds-config", setup.dds_config,
-                 "Cyclone DDS XML (default: cyclonedds.xml from the data search path)");
+  app.add_option("--dds-config", dds_config,
+                 "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
+                 "$CYCLONEDDS_URI when set, else loopback)");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
@@ -104,7 +107,9 @@ int main(int argc, char** argv) {
     setup.robot_id = static_cast<int>(it - setup.team.begin());
     setup.lockstep = !no_lockstep && setup.transport == "dds";
     if (setup.transport == "dds") {
-      setup.dds_config = draco::app::ResolveDataFile("cyclonedds.xml", setup.dds_config).path;
+      const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
+      setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI
+      std::cerr << "draco-robot: " << robot << ": " << dds.Describe() << "\n";
     }
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);

@@ -9,6 +9,7 @@
 
 #include "app_version.hpp"
 #include "run_info.hpp"
+#include "scoped_env.hpp"
 
 namespace draco::app {
 namespace {
@@ -33,6 +34,9 @@ TEST(ShellQuote, PlainArgumentsStayAndOthersAreQuoted) {
 TEST_F(RunInfoTest, WritesVersionCommandLineAndFiles) {
   const char* argv[] = {"draco-robot", "--mission", "/data/my mission", "--robot",
                         "alpha",       "--set",     "x=\"q\"\\"};
+  ScopedEnv env;
+  env.Set("DRACO_DDS_PEERS", "10.0.0.2,10.0.0.3");
+  env.Set("CYCLONEDDS_URI", nullptr);
   RunInfo info = MakeRunInfo("draco-robot", 7, argv);
   info.AddFile("graph", "/usr/share/draco-slam/graphs/../graphs/robot.yaml");
   info.AddFile("dds_config", "relative/loopback.xml");
@@ -55,6 +59,8 @@ TEST_F(RunInfoTest, WritesVersionCommandLineAndFiles) {
   EXPECT_EQ(j.at("files").at("graph"), "/usr/share/draco-slam/graphs/robot.yaml");
   EXPECT_EQ(j.at("files").at("dds_config"),
             (fs::current_path() / "relative/loopback.xml").string());
+  EXPECT_EQ(j.at("environment").at("DRACO_DDS_PEERS"), "10.0.0.2,10.0.0.3");
+  EXPECT_FALSE(j.at("environment").contains("CYCLONEDDS_URI"));
   EXPECT_EQ(j.at("started_utc").get<std::string>().size(), 20u);  // 2024-05-01T12:00:00Z
 }
 

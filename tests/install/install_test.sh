@@ -8,7 +8,8 @@
 # 3. draco-local-slam replays it with graphs/local-slam.yaml found in <prefix>/share/draco-slam
 #    (run_info.json names it, with the version --version prints); trajectories parse;
 # 4. draco run runs the default graph from the share folder;
-# 5. draco-fleet --mode dds starts the draco-robot next to it in <prefix>/bin.
+# 5. draco-fleet --mode dds starts the draco-robot next to it in <prefix>/bin, both on the
+#    loopback profile from the share folder.
 set -u
 build=$1
 cmake=$2
@@ -33,7 +34,7 @@ for app in draco draco-robot draco-fleet draco-sim draco-eval draco-local-slam d
 done
 for f in graphs/robot.yaml graphs/local-slam.yaml graphs/local-slam-core.yaml \
   graphs/default.yaml missions/airplane.yaml worlds/airplane.yaml generator/harbour.yaml \
-  cyclonedds.xml; do
+  dds/loopback.xml dds/lan.xml dds/unicast.xml; do
   [ -f "$share/$f" ] || fail "share/draco-slam/$f not installed"
 done
 
@@ -91,6 +92,7 @@ for robot in ("alpha", "bravo"):
     info = json.load(open(os.path.join(out, robot + ".run_info.json")))
     assert info["executable"] == robot_exe, info["executable"]
     assert info["files"]["graph"] == os.path.join(share, "graphs/robot.yaml"), info["files"]
+    assert info["files"]["dds_config"] == os.path.join(share, "dds/loopback.xml"), info["files"]
     stats = json.load(open(os.path.join(out, robot + ".link_stats.json")))
     assert all(t["frames_received"] > 0 for t in stats["teammates"]), stats["teammates"]
     assert os.path.getsize(os.path.join(out, robot + ".trajectory.tum")) > 0
