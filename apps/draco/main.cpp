@@ -13,17 +13,18 @@
 #include <fstream>
 #include <iostream>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
+#include "run_info.hpp"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 
 extern "C" void OnSignal(int) { g_stop = true; }
-
-const char* kDefaultGraph = DRACO_SOURCE_DIR "/config/graphs/default.yaml";
 
 std::unique_ptr<draco::graph::Graph> Load(const std::string& path,
                                           const std::vector<std::string>& overrides) {
@@ -43,6 +44,7 @@ std::string DefaultRunDir(const std::string& graph_name) {
 
 int main(int argc, char** argv) {
   CLI::App app{"draco: distributed sonar SLAM runtime"};
+  app.set_version_flag("--version", draco::app::VersionLine("draco"));
   app.require_subcommand(1);
 
   app.add_subcommand("list", "list every registered component with ports and parameters");
@@ -63,7 +65,8 @@ int main(int argc, char** argv) {
   int threads = 0;
   double until_s = -1.0;
   auto* run = app.add_subcommand("run", "run a graph");
-  run->add_option("graph", graph_path, "graph YAML (default: config/graphs/default.yaml)");
+  run->add_option("graph", graph_path,
+                  "graph YAML (default: graphs/default.yaml from the data search path)");
   run->add_option("--set", overrides, "override a parameter: component_id.param=value");
   run->add_option("--out", out_dir, "run folder (default: runs/<graph>-<time>)");
   run->add_option("--executor", executor, "deterministic or threaded (default: the graph's)")
@@ -90,7 +93,7 @@ int main(int argc, char** argv) {
       std::cout << draco::graph::ToDot(*Load(graph_path, overrides));
       return 0;
     }
-    if (graph_path.empty()) graph_path = kDefaultGraph;
+    if (graph_path.empty()) graph_path = draco::app::ResolveDataFile("graphs/default.yaml").path;
     auto graph = Load(graph_path, overrides);
     if (!executor.empty()) graph->settings.executor = executor;
     draco::graph::RunOptions options;
@@ -102,6 +105,9 @@ int main(int argc, char** argv) {
     if (until_s >= 0.0) options.until = draco::graph::Time::FromSeconds(until_s);
     options.output_dir = out_dir.empty() ? DefaultRunDir(graph->settings.name) : out_dir;
     std::filesystem::create_directories(options.output_dir);
+    auto run_info = draco::app::MakeRunInfo("draco", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(options.output_dir, run_info);
     options.stop_requested = &g_stop;
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);

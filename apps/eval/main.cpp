@@ -17,9 +17,11 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app_version.hpp"
 #include "draco/report/run_report.hpp"
 #include "draco/report/team_run.hpp"
 #include "frames.hpp"
+#include "run_info.hpp"
 
 namespace fs = std::filesystem;
 
@@ -58,6 +60,7 @@ int main(int argc, char** argv) {
   app.add_option("--robot", frames.robot, "sonar frames of this robot only");
   app.add_option("--frames", frames.per_robot, "sonar frames per robot")->check(CLI::Range(0, 50));
   app.add_flag("--no-report", no_report, "print the table only (no figures, no report.md)");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-eval"));
   CLI11_PARSE(app, argc, argv);
 
   const bool team_run = draco::report::IsTeamRun(run_dir);
@@ -137,6 +140,9 @@ int main(int argc, char** argv) {
       }
       steps.Next("report.md");
       const std::string path = draco::report::WriteReport(ev, content);
+      // The run folder's own run_info.json is the run's; the report's is report.run_info.json.
+      draco::app::WriteRunInfo(run_dir, draco::app::MakeRunInfo("draco-eval", argc, argv),
+                               "report.");
       std::printf("report: %s\n", fs::absolute(path).string().c_str());
     } catch (const std::exception& e) {
       std::cerr << "draco-eval: report: " << e.what() << "\n";

@@ -1,6 +1,7 @@
 // draco-fleet MISSION: runs a whole team on a recorded mission and reports it.
 //   --mode dds     one draco-robot daemon per robot, separate processes over Cyclone DDS on
-//                  loopback (config/cyclonedds.xml), in lock-step on the mission clock
+//                  loopback (dds/loopback.xml unless --dds-config or $CYCLONEDDS_URI say
+//                  otherwise), in lock-step on the mission clock
 //   --mode inproc  every robot in one process over the in-process bus (deterministic replay)
 //   --mode both    (default) both, then compares them: accepted inter-robot loops and team
 //                  ATE must agree within 10 %
@@ -28,6 +29,9 @@
 #include <map>
 #include <thread>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
+#include "dds_profile.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
@@ -35,12 +39,12 @@
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
 #include "process.hpp"
+#include "run_info.hpp"
 #include "team_setup.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 using draco::fleet_app::RobotSetup;
-using draco::fleet_app::SelfDir;
 using draco::fleet_app::Spawn;
 
 std::atomic<bool> g_stop{false};
@@ -49,8 +53,8 @@ extern "C" void OnSignal(int) { g_stop = true; }
 struct Options {
   std::string mission;
   std::string out;
-  std::string graph = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
-  std::string dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
+  std::string graph;       // default: graphs/robot.yaml from the data search path
+  std::string dds_config;  // --dds-config as given; then the file chosen ("": $CYCLONEDDS_URI)
   int domain = 0;
   std::vector<std::string> overrides;  // applied to every robot: component.param=value
   std::string kill;                    // robot to kill (dds)
@@ -111,18 +115,28 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
 // One daemon per robot over DDS; optionally kills one mid-mission and restarts it.
 int RunDds(const Options& o, const std::vector<std::string>& team, const std::string& out_dir) {
   fs::create_directories(out_dir);
-  const auto robot_bin = (SelfDir() / "draco-robot").string();
+  const auto robot_bin = draco::fleet_app::SiblingApp("draco-robot", "fleet").string();
   if (!fs::exists(robot_bin)) {
     std::cerr << "draco-fleet: " << robot_bin << " not found (build the draco-robot target)\n";
     return 1;
   }
   auto args_for = [&](const std::string& robot) {
-    std::vector<std::string> a = {robot_bin,      "--mission",  o.mission,
-                                  "--robot",      robot,        "--out",
-                                  out_dir,        "--domain",   std::to_string(o.domain),
-                                  "--dds-config", o.dds_config, "--graph",
-                                  o.graph,        "--rate",     std::to_string(o.rate),
+    std::vector<std::string> a = {robot_bin,
+                                  "--mission",
+                                  o.mission,
+                                  "--robot",
+                                  robot,
+                                  "--out",
+                                  out_dir,
+                                  "--domain",
+                                  std::to_string(o.domain),
+                                  "--graph",
+                                  o.graph,
+                                  "--rate",
+                                  std::to_string(o.rate),
                                   "--quiet"};
+    // No --dds-config: the daemons read the same $CYCLONEDDS_URI.
+    if (!o.dds_config.empty()) a.insert(a.end(), {"--dds-config", o.dds_config});
     for (const auto& x : o.overrides) {
       a.push_back("--set");
       a.push_back(x);
@@ -233,9 +247,11 @@ int main(int argc, char** argv) {
   app.add_option("--out", o.out, "output folder (default runs/fleet-<mission>)");
   app.add_option("--mode", mode, "dds, inproc or both")
       ->check(CLI::IsMember({"dds", "inproc", "both"}));
-  app.add_option("--graph", o.graph, "robot graph YAML");
+  app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
   app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
-  app.add_option("--dds-config", o.dds_config, "Cyclone DDS XML");
+  app.add_option("--dds-config", o.dds_config,
+                 "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
+                 "$CYCLONEDDS_URI when set, else loopback)");
   app.add_option("--set", o.overrides, "override for every robot: component_id.param=value");
   app.add_option("--kill", o.kill, "dds: kill this robot's daemon (SIGKILL) mid-mission");
   app.add_option("--kill-after-s", o.kill_after_s, "... this many wall seconds after start");
@@ -244,6 +260,7 @@ int main(int argc, char** argv) {
   app.add_option("--rate", o.rate,
                  "dds: pace the daemons at N x real time (0: as fast as lock-step allows)");
   app.add_option("--timeout-s", o.timeout_s, "dds: stop the daemons after this many seconds");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-fleet"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -257,7 +274,17 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
+    o.graph = draco::app::ResolveDataFile("graphs/robot.yaml", o.graph).path;
+    if (mode != "inproc") {
+      const auto dds = draco::app::ChooseDdsConfigFromEnvironment(o.dds_config);
+      o.dds_config = dds.file;
+      std::printf("draco-fleet: %s\n", dds.Describe().c_str());
+    }
     fs::create_directories(o.out);
+    auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
+    run_info.AddFile("graph", o.graph);
+    if (mode != "inproc" && !o.dds_config.empty()) run_info.AddFile("dds_config", o.dds_config);
+    draco::app::WriteRunInfo(o.out, run_info);
     std::string report =
         "# Fleet run: " + info.name + "\n\nMission `" + o.mission + "`, graph `" + o.graph + "`.\n";
     std::map<std::string, draco::report::TeamResult> results;

@@ -17,6 +17,13 @@ std::filesystem::path SelfDir() {
   return ec ? std::filesystem::path(".") : p.parent_path();
 }
 
+std::filesystem::path SiblingApp(const std::string& name, const std::string& build_folder) {
+  const auto here = SelfDir() / name;
+  const auto build = (SelfDir() / ".." / build_folder / name).lexically_normal();
+  std::error_code ec;
+  return !std::filesystem::exists(here, ec) && std::filesystem::exists(build, ec) ? build : here;
+}
+
 pid_t Spawn(const std::vector<std::string>& args, const std::string& log_path) {
   const pid_t pid = ::fork();
   if (pid < 0) throw std::runtime_error(std::string("fork: ") + std::strerror(errno));

@@ -18,10 +18,14 @@
 #include <iostream>
 #include <sstream>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
+#include "dds_profile.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "run_info.hpp"
 #include "team_setup.hpp"
 
 namespace {
@@ -34,13 +38,13 @@ int main(int argc, char** argv) {
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path;
+  std::string dds_config;  // --dds-config as given
   std::string team_list;
   std::string out_dir;
   std::vector<std::string> overrides;
   double rate = 0.0;
   bool no_lockstep = false;
   bool quiet = false;
-  setup.dds_config = DRACO_SOURCE_DIR "/config/cyclonedds.xml";
   auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder");
   auto* bag_opt =
       app.add_option("--bag", setup.bag, "ROS 1 bag of this robot (instead of --mission)")
@@ -53,16 +57,20 @@ int main(int argc, char** argv) {
   bag_opt->needs(team_opt);
   app.add_option("--robot", robot, "robot name in the mission (or in --team)")->required();
   app.add_option("--graph", graph_path,
-                 "robot graph YAML (default config/graphs/robot.yaml, robot-bag.yaml with --bag)");
+                 "robot graph YAML (default graphs/robot.yaml, graphs/robot-bag.yaml with --bag, "
+                 "from the data search path)");
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
   app.add_option("--domain", setup.domain_id, "DDS domain id")->check(CLI::Range(0, 230));
-  app.add_option("--dds-config", setup.dds_config, "Cyclone DDS XML (loopback by default)");
+  app.add_option("--dds-config", dds_config,
+                 "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
+                 "$CYCLONEDDS_URI when set, else loopback)");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
   app.add_flag("--quiet", quiet, "no progress line");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-robot"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -79,7 +87,7 @@ int main(int argc, char** argv) {
       setup.world = info.world;
       source = "mission " + setup.mission_dir;
       if (out_dir.empty()) out_dir = "runs/robot-" + info.name;
-      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot.yaml";
+      graph_path = draco::app::ResolveDataFile("graphs/robot.yaml", graph_path).path;
     } else {
       std::stringstream names(team_list);
       for (std::string n; std::getline(names, n, ',');) {
@@ -87,7 +95,7 @@ int main(int argc, char** argv) {
       }
       source = "--team " + team_list;
       if (out_dir.empty()) out_dir = "runs/robot-" + robot;
-      if (graph_path.empty()) graph_path = DRACO_SOURCE_DIR "/config/graphs/robot-bag.yaml";
+      graph_path = draco::app::ResolveDataFile("graphs/robot-bag.yaml", graph_path).path;
     }
     const auto it = std::find(setup.team.begin(), setup.team.end(), robot);
     if (it == setup.team.end()) {
@@ -98,7 +106,18 @@ int main(int argc, char** argv) {
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
     setup.lockstep = !no_lockstep && setup.transport == "dds";
+    if (setup.transport == "dds") {
+      const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
+      setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI
+      std::cerr << "draco-robot: " << robot << ": " << dds.Describe() << "\n";
+    }
     std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    if (setup.transport == "dds" && !setup.dds_config.empty()) {
+      run_info.AddFile("dds_config", setup.dds_config);
+    }
+    draco::app::WriteRunInfo(out_dir, run_info, robot + ".");
 
     draco::graph::LoadOptions load;
     load.overrides = draco::fleet_app::RobotOverrides(setup, "");

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "app_version.hpp"
 #include "draco/fleet/codec.hpp"
 #include "draco/frontend/pipeline.hpp"
 #include "draco/objects/object_mapper.hpp"
@@ -73,6 +74,7 @@ int main(int argc, char** argv) {
   app.add_option("keyframes", files, "keyframe caches (OUT/slam/<robot>.keyframes.bin)")
       ->required();
   app.add_option("--period", period_s, "mission seconds between object-map / pose updates");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-fleet-sizes"));
   CLI11_PARSE(app, argc, argv);
 
   const fleet::CodecOptions o;

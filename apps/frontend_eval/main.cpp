@@ -21,12 +21,15 @@
 #include <map>
 #include <numbers>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/frontend/pipeline.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/report/figures.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -49,7 +52,7 @@ int main(int argc, char** argv) {
   CLI::App app{"draco-frontend-eval: inter-robot loop-closure precision (paper Fig. 3)"};
   std::string mission;
   std::string out_dir;
-  std::string graph_path = DRACO_SOURCE_DIR "/config/graphs/local-slam.yaml";
+  std::string graph_path;  // default: graphs/local-slam.yaml from the data search path
   std::vector<std::string> overrides;
   bool reuse = false;
   bool oracle = false;
@@ -69,7 +72,7 @@ int main(int argc, char** argv) {
   fe::OverTimeOptions over_time;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/frontend-<mission>)");
-  app.add_option("--graph", graph_path, "local-SLAM graph YAML");
+  app.add_option("--graph", graph_path, "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--set", overrides, "local-SLAM graph override component.param=value");
   app.add_flag("--oracle-matching", oracle,
                "where matching fails, seed registration with the ground-truth transform and "
@@ -165,6 +168,7 @@ int main(int argc, char** argv) {
   app.add_option("--track-votes", over_time.tracker.min_votes, "tracker: wins needed");
   app.add_option("--track-dominance", over_time.tracker.dominance,
                  "tracker: votes over every other track's");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-frontend-eval"));
   CLI11_PARSE(app, argc, argv);
   if (landmarks >= 0) {
     mapper.landmark_min_sightings = landmarks;
@@ -183,8 +187,12 @@ int main(int argc, char** argv) {
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
+    graph_path = draco::app::ResolveDataFile("graphs/local-slam.yaml", graph_path).path;
     if (out_dir.empty()) out_dir = "runs/frontend-" + info.name;
     std::filesystem::create_directories(out_dir + "/slam");
+    auto run_info = draco::app::MakeRunInfo("draco-frontend-eval", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     const bool airplane = info.world.find("airplane") != std::string::npos ||
                           info.name.find("airplane") != std::string::npos;
     if (airplane) {

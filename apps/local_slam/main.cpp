@@ -13,11 +13,14 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/eval/trajectory.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "run_info.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -29,25 +32,30 @@ int main(int argc, char** argv) {
   CLI::App app{"draco-local-slam: single-robot local SLAM replay with ATE"};
   std::string mission_dir;
   std::string robot;
-  std::string graph_path = DRACO_SOURCE_DIR "/config/graphs/local-slam.yaml";
+  std::string graph_path;  // default: graphs/local-slam.yaml from the data search path
   std::string out_dir;
   std::vector<std::string> overrides;
   double max_ratio = 0.0;
   app.add_option("mission", mission_dir, "recorded mission folder")->required();
   app.add_option("--robot", robot, "one robot (default: every robot of the mission)");
-  app.add_option("--graph", graph_path, "local-SLAM graph YAML");
+  app.add_option("--graph", graph_path, "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--out", out_dir, "run folder (default: runs/local-slam-<mission>)");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--max-ratio", max_ratio,
                  "exit 2 when a robot's SLAM ATE exceeds this fraction of dead reckoning's");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-local-slam"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission_dir);
+    graph_path = draco::app::ResolveDataFile("graphs/local-slam.yaml", graph_path).path;
     if (out_dir.empty()) out_dir = "runs/local-slam-" + info.name;
     std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-local-slam", argc, argv);
+    run_info.AddFile("graph", graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     std::vector<std::string> robots;
     for (const auto& r : info.robots) {
       if (robot.empty() || r.name == robot) robots.push_back(r.name);

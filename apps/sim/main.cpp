@@ -21,6 +21,7 @@
 #include <sstream>
 #include <thread>
 
+#include "app_version.hpp"
 #include "draco/sim/generator.hpp"
 #include "draco/sim/mission.hpp"
 #include "draco/sim/simulator.hpp"
@@ -29,6 +30,7 @@
 #include "draco/sim/world.hpp"
 #include "mission_output.hpp"
 #include "pictures.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -144,7 +146,8 @@ double Overlap(const std::vector<Vec2>& mine, const std::vector<std::vector<Vec2
 
 int RunMission(const std::string& mission_file, const std::string& out_dir,
                std::optional<std::uint64_t> seed, std::optional<double> duration_s,
-               std::optional<int> robots, int threads, bool pictures, bool sonar_on) {
+               std::optional<int> robots, int threads, bool pictures, bool sonar_on,
+               draco::app::RunInfo run_info) {
   const auto t_start = Clock::now();
   draco::sim::Mission mission = draco::sim::LoadMission(mission_file);
   if (seed) mission.seed = *seed;
@@ -167,6 +170,8 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
             << ", out " << out_dir << "\n";
 
   draco::sim_app::MissionOutput output(out_dir, mission, indices);
+  run_info.AddFile("mission", mission_file);
+  draco::app::WriteRunInfo(out_dir, run_info);
   std::vector<std::unique_ptr<draco::sim_app::RecordingSink>> sinks;
   std::vector<std::unique_ptr<RobotRun>> runs;
   std::vector<draco::sim::RobotProgress> progress(n);
@@ -292,7 +297,7 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
 
 // Draws a world and mission and writes DIR/{world.yaml, mission.yaml, scenario.txt, world.png}.
 int RunGenerate(std::uint64_t seed, const std::string& out_dir, const std::string& style_file,
-                std::optional<int> robots, bool picture) {
+                std::optional<int> robots, bool picture, draco::app::RunInfo run_info) {
   const auto t_start = Clock::now();
   draco::sim::GeneratorOptions options;
   if (!style_file.empty()) options = draco::sim::LoadGeneratorOptions(style_file);
@@ -302,6 +307,8 @@ int RunGenerate(std::uint64_t seed, const std::string& out_dir, const std::strin
 
   const std::filesystem::path dir(out_dir);
   std::filesystem::create_directories(dir);
+  if (!style_file.empty()) run_info.AddFile("style", style_file);
+  draco::app::WriteRunInfo(dir, run_info);
   auto write = [&](const char* name, const std::string& text) {
     std::ofstream out(dir / name);
     out << text;
@@ -371,13 +378,15 @@ int main(int argc, char** argv) {
           ->check(CLI::Range(1, 8));
   generate->add_flag("--picture,!--no-picture", gen_picture,
                      "write DIR/world.png with the planned paths (default: on)");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-sim"));
   CLI11_PARSE(app, argc, argv);
+  const auto run_info = draco::app::MakeRunInfo("draco-sim", argc, argv);
 
   try {
     if (generate->parsed()) {
       return RunGenerate(gen_seed, gen_out, gen_style,
                          gen_robots_opt->count() ? std::optional<int>(gen_robots) : std::nullopt,
-                         gen_picture);
+                         gen_picture, run_info);
     }
     if (!picture.empty()) {
       const draco::sim::World world = draco::sim::LoadWorld(world_file);
@@ -394,7 +403,7 @@ int main(int argc, char** argv) {
                       seed_opt->count() ? std::optional<std::uint64_t>(seed) : std::nullopt,
                       duration_opt->count() ? std::optional<double>(duration_s) : std::nullopt,
                       robots_opt->count() ? std::optional<int>(robots) : std::nullopt, threads,
-                      !no_pictures, !no_sonar);
+                      !no_pictures, !no_sonar, run_info);
   } catch (const std::exception& e) {
     std::cerr << "draco-sim: error: " << e.what() << "\n";
     return 1;

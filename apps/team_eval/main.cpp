@@ -30,6 +30,8 @@
 #include <tuple>
 #include <vector>
 
+#include "app_version.hpp"
+#include "data_path.hpp"
 #include "draco/consistency/filter.hpp"
 #include "draco/consistency/graph_pose_source.hpp"
 #include "draco/consistency/pairwise.hpp"
@@ -42,6 +44,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/team/team_pgo.hpp"
+#include "run_info.hpp"
 
 namespace {
 
@@ -158,7 +161,6 @@ int main(int argc, char** argv) {
   std::string mission;
   std::string out_dir;
   fe::SlamRunOptions slam;
-  slam.graph_path = DRACO_SOURCE_DIR "/config/graphs/local-slam.yaml";
   bool oracle = false;
   reg::SelectionOptions sel;
   reg::RegistrationOptions ro;
@@ -175,7 +177,8 @@ int main(int argc, char** argv) {
   bool shared_transforms = true;
   app.add_option("mission", mission, "recorded mission folder")->required();
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
-  app.add_option("--graph", slam.graph_path, "local-SLAM graph YAML");
+  app.add_option("--graph", slam.graph_path,
+                 "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--set", slam.overrides, "local-SLAM graph override component.param=value");
   app.add_flag("--oracle-matching", oracle,
                "where matching is not right, use the ground-truth map-to-map transform (and true "
@@ -234,6 +237,7 @@ int main(int argc, char** argv) {
   app.add_option("--inject-directions", inject.directions,
                  "correlated: 0 any direction, N one of N evenly spaced (4: +-x, +-y)");
   app.add_option("--inject-seed", inject.seed, "robustness test: seed");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-team-eval"));
   CLI11_PARSE(app, argc, argv);
   const bool graph_covariance = pose_covariance == "graph";
   inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
@@ -258,7 +262,12 @@ int main(int argc, char** argv) {
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
+    slam.graph_path = draco::app::ResolveDataFile("graphs/local-slam.yaml", slam.graph_path).path;
     if (out_dir.empty()) out_dir = "runs/team-" + info.name;
+    std::filesystem::create_directories(out_dir);
+    auto run_info = draco::app::MakeRunInfo("draco-team-eval", argc, argv);
+    run_info.AddFile("graph", slam.graph_path);
+    draco::app::WriteRunInfo(out_dir, run_info);
     const bool airplane = info.world.find("airplane") != std::string::npos ||
                           info.name.find("airplane") != std::string::npos;
     if (airplane) {

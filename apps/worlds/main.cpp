@@ -23,16 +23,17 @@
 #include <string>
 #include <vector>
 
+#include "app_version.hpp"
 #include "draco/graph/executor.hpp"
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
 #include "process.hpp"
+#include "run_info.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 
 using draco::fleet_app::RunAndWait;
-using draco::fleet_app::SelfDir;
 
 std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
   std::vector<std::uint64_t> out;
@@ -245,6 +246,7 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", duration_s, "cap each robot's mission (draco-sim)");
   app.add_option("--set", overrides, "component.param=value for every robot (draco-fleet)");
   app.add_flag("--keep-missions", keep, "keep the recordings (1-3 GB each)");
+  app.set_version_flag("--version", draco::app::VersionLine("draco-worlds"));
   CLI11_PARSE(app, argc, argv);
   try {
     const auto seeds = seeds_text.empty() ? std::vector<std::uint64_t>{} : ParseSeeds(seeds_text);
@@ -252,13 +254,16 @@ int main(int argc, char** argv) {
       std::cerr << "draco-worlds: nothing to run (give --seeds and/or --mission)\n";
       return 2;
     }
-    const fs::path bin = SelfDir();
-    const std::string sim = (bin / "../sim/draco-sim").lexically_normal().string();
-    const std::string fleet = (bin / "../fleet/draco-fleet").lexically_normal().string();
+    // Next to draco-worlds when installed, in their build-tree folders otherwise.
+    const std::string sim = draco::fleet_app::SiblingApp("draco-sim", "sim").string();
+    const std::string fleet = draco::fleet_app::SiblingApp("draco-fleet", "fleet").string();
     for (const auto& b : {sim, fleet}) {
       if (!fs::exists(b)) throw std::runtime_error(b + " not found (build it)");
     }
     fs::create_directories(out);
+    auto run_info = draco::app::MakeRunInfo("draco-worlds", argc, argv);
+    if (!style.empty()) run_info.AddFile("style", style);
+    draco::app::WriteRunInfo(out, run_info);
     std::vector<WorldRow> rows;
     std::string pairs_csv =
         "world,own,teammate,path_overlap,verdict,final_err_m,final_err_deg,first_placed_s,"

@@ -1,4 +1,5 @@
-// Cyclone DDS transport on loopback with the shipped config/cyclonedds.xml. Each test picks a
+// Cyclone DDS transport on loopback with the shipped config/dds/loopback.xml (and lan.xml,
+// unicast.xml). Each test picks a
 // domain id from the process id, so concurrent test processes do not hear each other.
 #include <dds/dds.h>
 #include <gtest/gtest.h>
@@ -31,7 +32,7 @@ int TestDomain(int offset) { return 1 + (static_cast<int>(getpid()) % 190) + off
 DdsOptions Options(int domain, std::uint16_t robot) {
   return DdsOptions{.domain_id = domain,
                     .robot_id = robot,
-                    .config_file = DRACO_SOURCE_DIR "/config/cyclonedds.xml"};
+                    .config_file = DRACO_SOURCE_DIR "/config/dds/loopback.xml"};
 }
 
 Frame MakeFrame(std::uint16_t destination, std::uint8_t kind, std::uint32_t seq,
@@ -173,6 +174,41 @@ TEST(DdsTransport, UnreadableConfigNamesTheFile) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/cyclonedds.xml"), std::string::npos)
         << e.what();
+  }
+}
+
+// The other shipped profiles start Cyclone and carry frames: lan.xml (multicast discovery)
+// and unicast.xml with its peers from $DRACO_DDS_PEERS, which it cannot do without.
+void ExchangeOneFrame(const std::string& profile, int domain) {
+  DdsOptions options = Options(domain, 1);
+  options.config_file = DRACO_SOURCE_DIR "/config/dds/" + profile;
+  auto a = MakeDdsTransport(options);
+  options.robot_id = 2;
+  auto b = MakeDdsTransport(options);
+  std::uint32_t seq = 0;
+  EXPECT_TRUE(PollFor(5.0,
+                      [&] {
+                        EXPECT_TRUE(a->Send(MakeFrame(2, 4, seq++)));
+                        return !b->Receive().empty();
+                      }))
+      << profile << ": robot 2 never heard robot 1";
+}
+
+TEST(DdsTransport, LanProfileWorks) { ExchangeOneFrame("lan.xml", TestDomain(4)); }
+
+TEST(DdsTransport, UnicastProfileTakesItsPeersFromTheEnvironment) {
+  const char* old = std::getenv("DRACO_DDS_PEERS");
+  const std::string saved = old ? old : "";
+  ::unsetenv("DRACO_DDS_PEERS");
+  DdsOptions options = Options(TestDomain(5), 1);
+  options.config_file = DRACO_SOURCE_DIR "/config/dds/unicast.xml";
+  EXPECT_THROW(MakeDdsTransport(options), std::runtime_error) << "started without peers";
+  ::setenv("DRACO_DDS_PEERS", "127.0.0.1,localhost", 1);
+  ExchangeOneFrame("unicast.xml", TestDomain(6));
+  if (old) {
+    ::setenv("DRACO_DDS_PEERS", saved.c_str(), 1);
+  } else {
+    ::unsetenv("DRACO_DDS_PEERS");
   }
 }
 

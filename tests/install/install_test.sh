@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# cmake --install into a temporary prefix, then run from there with the source tree out of
+# the way ($DRACO_DATA_DIR, $CYCLONEDDS_URI and user overrides unset, working folder outside
+# the source tree):
+# 1. only bin/<apps> and share/draco-slam/ are installed: nothing that collides with Debian's
+#    draco package (include/draco, libdraco*, lib/cmake/draco, draco_encoder ...);
+# 2. draco-sim simulates a shipped mission (cut to 20 s, 2 robots);
+# 3. draco-local-slam replays it with graphs/local-slam.yaml found in <prefix>/share/draco-slam
+#    (run_info.json names it, with the version --version prints); trajectories parse;
+# 4. draco run runs the default graph from the share folder;
+# 5. draco-fleet --mode dds starts the draco-robot next to it in <prefix>/bin, both on the
+#    loopback profile from the share folder.
+set -u
+build=$1
+cmake=$2
+fail() { echo "FAIL: $*"; exit 1; }
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+prefix=$work/prefix
+share=$prefix/share/draco-slam
+
+"$cmake" --install "$build" --prefix "$prefix" >"$work/install.log" 2>&1 ||
+  { cat "$work/install.log"; fail "cmake --install"; }
+
+# 1. What is installed.
+(cd "$prefix" && find . -type f -o -type l | sed 's|^\./||' | sort) >"$work/files"
+unexpected=$(grep -Ev '^(bin/draco(-[a-z-]+)?|share/draco-slam/.+)$' "$work/files")
+[ -z "$unexpected" ] || fail "unexpected files installed: $unexpected"
+grep -E '(^include/|^lib|libdraco|draco_(en|de|trans)coder|cmake/)' "$work/files" &&
+  fail "installed a file that collides with Debian's draco package"
+for app in draco draco-robot draco-fleet draco-sim draco-eval draco-local-slam draco-worlds \
+  draco-team-eval draco-frontend-eval draco-fleet-sizes; do
+  [ -x "$prefix/bin/$app" ] || fail "bin/$app not installed"
+done
+for f in graphs/robot.yaml graphs/local-slam.yaml graphs/local-slam-core.yaml \
+  graphs/default.yaml missions/airplane.yaml worlds/airplane.yaml generator/harbour.yaml \
+  dds/loopback.xml dds/lan.xml dds/unicast.xml; do
+  [ -f "$share/$f" ] || fail "share/draco-slam/$f not installed"
+done
+
+# From here on: the installed tree only.
+unset DRACO_DATA_DIR CYCLONEDDS_URI XDG_CONFIG_HOME
+export HOME=$work/home
+mkdir -p "$HOME"
+cd "$work" || fail "cd $work"
+bin=$prefix/bin
+
+# 2. A short mission from a shipped mission file.
+"$bin/draco-sim" "$share/missions/airplane.yaml" --out m --duration-s 20 --robots 2 \
+  --no-pictures >sim.log 2>&1 || { cat sim.log; fail "draco-sim"; }
+[ -f m/mission.yaml ] || fail "no mission.yaml"
+
+# 3. Local SLAM with the installed graph.
+"$bin/draco-local-slam" m --out ls >ls.log 2>&1 || { cat ls.log; fail "draco-local-slam"; }
+version=$("$bin/draco-local-slam" --version) || fail "draco-local-slam --version"
+python3 - ls "$share" "$version" "$bin/draco-local-slam" <<'PY' || fail "draco-local-slam outputs"
+import json, os, sys
+out, share, version_line, exe = sys.argv[1:]
+info = json.load(open(os.path.join(out, "run_info.json")))
+assert info["files"]["graph"] == os.path.join(share, "graphs/local-slam.yaml"), info["files"]
+assert "draco-local-slam " + info["version"] == version_line, (info["version"], version_line)
+assert info["executable"] == exe, info["executable"]
+for robot in ("alpha", "bravo"):
+    rows = [l.split() for l in open(os.path.join(out, robot + ".trajectory.tum"))
+            if l.strip() and not l.startswith("#")]
+    assert len(rows) >= 2, (robot, len(rows))
+    for r in rows:
+        assert len(r) == 8, r
+        [float(x) for x in r]
+    json.load(open(os.path.join(out, robot + ".runtime_stats.json")))
+PY
+
+# 4. The default graph from the share folder.
+"$bin/draco" run --rate 0 --until 2 --out d >d.log 2>&1 || { cat d.log; fail "draco run"; }
+python3 - d "$share" <<'PY' || fail "draco run outputs"
+import json, os, sys
+out, share = sys.argv[1:]
+info = json.load(open(os.path.join(out, "run_info.json")))
+assert info["files"]["graph"] == os.path.join(share, "graphs/default.yaml"), info["files"]
+json.load(open(os.path.join(out, "runtime_stats.json")))
+assert len(open(os.path.join(out, "sum.csv")).readlines()) > 1
+PY
+
+# 5. A two-daemon team over DDS: draco-fleet starts the draco-robot next to it.
+domain=$(( ($$ % 200) + 10 ))
+"$bin/draco-fleet" m --mode dds --out f --domain "$domain" --set link.lockstep_timeout_s=5 \
+  >f.log 2>&1 || { cat f.log; for l in f/dds/*.log; do cat "$l"; done; fail "draco-fleet"; }
+python3 - f/dds "$bin/draco-robot" "$share" <<'PY' || fail "draco-fleet outputs"
+import json, os, sys
+out, robot_exe, share = sys.argv[1:]
+for robot in ("alpha", "bravo"):
+    info = json.load(open(os.path.join(out, robot + ".run_info.json")))
+    assert info["executable"] == robot_exe, info["executable"]
+    assert info["files"]["graph"] == os.path.join(share, "graphs/robot.yaml"), info["files"]
+    assert info["files"]["dds_config"] == os.path.join(share, "dds/loopback.xml"), info["files"]
+    stats = json.load(open(os.path.join(out, robot + ".link_stats.json")))
+    assert all(t["frames_received"] > 0 for t in stats["teammates"]), stats["teammates"]
+    assert os.path.getsize(os.path.join(out, robot + ".trajectory.tum")) > 0
+PY
+echo ok
