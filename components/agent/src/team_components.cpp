@@ -220,6 +220,15 @@ class GraphMatcherComponent final : public graph::Component {
                {.doc = "hypotheses turned further than this from the maps' absolute headings' "
                        "difference are dropped (<= 0: off)",
                 .unit = "rad"});
+    spec.Param("heading_votes", &o_.matcher.heading_votes,
+               {.doc = "no answer from the object graphs: translation votes under the maps' "
+                       "absolute headings"});
+    spec.Param("heading_vote_min_inliers", &o_.matcher.heading_vote_min_inliers,
+               {.doc = "... need this many objects within heading_vote_inlier_m", .min = 2});
+    spec.Param("max_vote_ambiguity", &o_.matcher.max_vote_ambiguity,
+               {.doc = "... and a distinct runner-up below this fraction of the winner's "
+                       "support beyond a two-point sample",
+                .min = 0.0});
     spec.Param("prefix", &prefix_,
                {.doc = "output file name prefix, e.g. the robot name; writes "
                        "<prefix>matches.csv (every matching tried)"});
@@ -249,10 +258,14 @@ class GraphMatcherComponent final : public graph::Component {
       for (const auto& a : stage_->TakeAttempts()) {
         const auto& m = a.match;
         char line[240];
-        std::snprintf(line, sizeof line, "%.3f,%d,%s,%.4f,%.4f,%.6f,%d,%d,%.3f,%d,%d\n", a.time_s,
-                      m.robot_b, msgs::MatchStatusName(m.status), m.T_a_b.x_m, m.T_a_b.y_m,
-                      m.T_a_b.yaw_rad, m.num_inliers, m.num_ransac_inliers, m.ambiguity,
-                      a.own_objects, a.teammate_objects);
+        const char* by = m.by_votes       ? "votes"
+                         : m.by_landmarks ? "landmarks"
+                         : m.by_lines     ? "lines"
+                                          : "spectral";
+        std::snprintf(line, sizeof line, "%.3f,%d,%s,%s,%.4f,%.4f,%.6f,%d,%d,%.3f,%d,%d\n",
+                      a.time_s, m.robot_b, msgs::MatchStatusName(m.status), by, m.T_a_b.x_m,
+                      m.T_a_b.y_m, m.T_a_b.yaw_rad, m.num_inliers, m.num_ransac_inliers,
+                      m.ambiguity, a.own_objects, a.teammate_objects);
         attempts_ += line;
       }
     }
@@ -267,7 +280,7 @@ class GraphMatcherComponent final : public graph::Component {
   GraphMatcherStageOptions o_;
   std::string prefix_;
   std::string attempts_ =
-      "time_s,teammate_robot,status,x_m,y_m,yaw_rad,inliers,ransac_inliers,ambiguity,"
+      "time_s,teammate_robot,status,path,x_m,y_m,yaw_rad,inliers,ransac_inliers,ambiguity,"
       "own_objects,teammate_objects\n";
   std::unique_ptr<GraphMatcherStage> stage_;
   Absorber in_;

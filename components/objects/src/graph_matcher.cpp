@@ -675,7 +675,8 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
   }
   match.num_ransac_inliers = peaks[win].support;
   match.ambiguity = std::max(0, runner_up - 2) / std::max(1e-9, double(peaks[win].support - 2));
-  if (peaks[win].support < options.min_inliers) {
+  const int min_inliers = std::max(options.min_inliers, options.heading_vote_min_inliers);
+  if (peaks[win].support < min_inliers) {
     match.status = MatchStatus::kTooFewInliers;
     return match;
   }
@@ -705,13 +706,14 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
       qa.push_back(a.objects[best].center);
       qb.push_back(b.objects[k].center);
     }
-    if (static_cast<int>(pairs.size()) < options.min_inliers) {
+    if (static_cast<int>(pairs.size()) < min_inliers) {
       match.status = MatchStatus::kTooFewInliers;
       match.num_inliers = static_cast<int>(pairs.size());
       return match;
     }
     T = FitRigid(qa, qb);
   }
+  match.by_votes = true;
   if (!HeadingAllows(yaw_prior, T.yaw_rad, options.max_heading_gap_rad)) {
     match.status = MatchStatus::kHeadingMismatch;
     return match;

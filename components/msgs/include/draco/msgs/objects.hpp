@@ -82,6 +82,8 @@ struct ObjectMatch {
   int num_line_pairs = 0;
   // Answer of the landmark path (objects::MatcherOptions::landmarks): pairs of landmarks.
   bool by_landmarks = false;
+  // Answer of the translation votes under the maps' headings (MatcherOptions::heading_votes).
+  bool by_votes = false;
 };
 
 inline const char* MatchStatusName(MatchStatus status) {

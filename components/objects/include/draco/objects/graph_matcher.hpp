@@ -96,6 +96,7 @@ struct MatcherOptions {
   double heading_vote_step_rad = 0.0349;  // 2 deg
   double heading_vote_cell_m = 2.0;
   double heading_vote_inlier_m = 1.5;
+  int heading_vote_min_inliers = 5;
   double max_vote_ambiguity = 0.8;
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
