@@ -215,22 +215,32 @@ RowScene MakeRow(std::uint64_t seed) {
   return s;
 }
 
-// A 4 x 3 grid of identical piles (6 m by 4 m spacing) seen whole by both robots: it fits
-// itself turned 180 deg about its centre, so the object graphs cannot tell the truth from the
-// flip. The maps' absolute headings (each robot's AHRS) can: the answer is the one whose
-// rotation they allow (when the spectral assignment holds only the other fit, translation
-// votes under the headings' rotation find it); a rotation the grid has no fit for (90 deg)
-// gives no match at all.
-TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
-  std::vector<msgs::Object> world;
-  for (int i = 0; i < 4; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      msgs::Object o;
-      o.id = static_cast<std::uint32_t>(world.size());
-      o.center = o.rect_center = {6.0 * i, 4.0 * j};
-      o.length_m = o.breadth_m = 0.6;
-      world.push_back(o);
+// Identical piles laid out point-symmetrically (seven random piles in 60 m x 40 m and their
+// mirror images through (10, 5), as the two sides of a harbour basin): the set fits itself turned
+// 180 deg about that point, so the object graphs cannot tell the truth from the flip. The maps'
+// absolute headings (each robot's AHRS) can: the answer is the fit whose rotation they allow (when
+// the spectral assignment holds only the other fit, translation votes under the headings' rotation
+// find it); a rotation the layout has no fit for (90 deg) gives no match at all.
+TEST(Matcher, AbsoluteHeadingsPickTheTurnTheyAllow) {
+  std::mt19937_64 layout(11);
+  std::uniform_real_distribution<double> ux(-20.0, 40.0), uy(-15.0, 25.0);
+  std::vector<Point2> piles;
+  while (piles.size() < 14) {
+    const Point2 p{ux(layout), uy(layout)}, q{20.0 - p.x_m, 10.0 - p.y_m};
+    bool apart = std::hypot(p.x_m - q.x_m, p.y_m - q.y_m) >= 4.0;
+    for (const auto& o : piles) {
+      apart = apart && std::hypot(o.x_m - p.x_m, o.y_m - p.y_m) >= 4.0 &&
+              std::hypot(o.x_m - q.x_m, o.y_m - q.y_m) >= 4.0;
     }
+    if (apart) piles.push_back(p), piles.push_back(q);
+  }
+  std::vector<msgs::Object> world;
+  for (const auto& p : piles) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(world.size());
+    o.center = o.rect_center = p;
+    o.length_m = o.breadth_m = 0.6;
+    world.push_back(o);
   }
   std::vector<int> all(world.size());
   for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
@@ -242,8 +252,7 @@ TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
   msgs::ObjectMap a = View(world, all, T_w_a, 0, wo, &rng);
   msgs::ObjectMap b = View(world, all, T_w_b, 0, wo, &rng);
   const msgs::Pose2 truth = Compose(Inverse(T_w_a), T_w_b);
-  // The flip: b's grid turned 180 deg about the grid's centre (9, 4) in the world.
-  const msgs::Pose2 T_w_turn = Compose({9.0, 4.0, M_PI}, {-9.0, -4.0, 0.0});
+  const msgs::Pose2 T_w_turn = Compose({10.0, 5.0, M_PI}, {-10.0, -5.0, 0.0});
   const msgs::Pose2 flip = Compose(Inverse(T_w_a), Compose(T_w_turn, T_w_b));
   // AHRS headings with a few degrees of error each.
   a.map_heading_rad = 0.4 + 0.03;
@@ -252,20 +261,23 @@ TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
   const auto right = MatchObjectMaps(a, b, o);
   ASSERT_EQ(right.status, MatchStatus::kMatched);
   EXPECT_TRUE(Close(right.T_a_b, truth, 1.0, 3.0));
-  EXPECT_EQ(right.num_inliers, 12);
-  // Headings that say b's map is turned the other way round: the flip, not the truth.
+  EXPECT_EQ(right.num_inliers, 14);
+  // Headings that say b's map is turned the other way round: the flip, never the truth.
   b.map_heading_rad = 2.1 + M_PI;
   const auto turned = MatchObjectMaps(a, b, o);
   ASSERT_EQ(turned.status, MatchStatus::kMatched);
   EXPECT_TRUE(Close(turned.T_a_b, flip, 1.0, 3.0));
-  EXPECT_EQ(turned.num_inliers, 12);
+  EXPECT_EQ(turned.num_inliers, 14);
   MatcherOptions no_votes = o;
-  no_votes.heading_votes = false;  // the spectral answer alone: the truth, refused
-  EXPECT_EQ(MatchObjectMaps(a, b, no_votes).status, MatchStatus::kTooFewInliers);
-  // A quarter turn: no hypothesis the headings allow fits five piles.
+  no_votes.heading_votes = false;  // the spectral answer alone: the flip or nothing
+  const auto spectral = MatchObjectMaps(a, b, no_votes);
+  EXPECT_TRUE(spectral.status != MatchStatus::kMatched || Close(spectral.T_a_b, flip, 1.0, 3.0));
+  EXPECT_FALSE(spectral.by_votes);
+  // A quarter turn: no hypothesis the headings allow fits.
   b.map_heading_rad = 2.1 + 0.5 * M_PI;
   EXPECT_NE(MatchObjectMaps(a, b, o).status, MatchStatus::kMatched);
   // Off, or a heading unknown: no bound; the answer is one of the two fits.
+  b.map_heading_rad = 2.1 + 0.5 * M_PI;
   for (const double gap : {0.0, -1.0}) {
     MatcherOptions off = o;
     off.max_heading_gap_rad = gap;
@@ -279,6 +291,37 @@ TEST(Matcher, AbsoluteHeadingsPickTheGridsTurnTheyAllow) {
   EXPECT_TRUE(HeadingAllows(std::nullopt, 3.0, 0.5));
   EXPECT_TRUE(HeadingAllows(0.1, 0.1 + 2 * M_PI + 0.4, 0.5));  // wraps
   EXPECT_FALSE(HeadingAllows(0.1, 0.7, 0.5));
+}
+
+// A row of identical piles is a translation ambiguity the headings cannot resolve: under the
+// right rotation the votes for a shift by one spacing are nearly as many as for the truth, so
+// the vote path gives no answer.
+TEST(Matcher, HeadingVotesRefuseARowShiftedByASpacing) {
+  std::vector<msgs::Object> world;
+  for (int i = 0; i < 12; ++i) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(i);
+    o.center = o.rect_center = {5.0 * i, 0.0};
+    o.length_m = o.breadth_m = 0.6;
+    world.push_back(o);
+  }
+  std::mt19937_64 rng(8);
+  const WorldOptions wo{.center_noise_m = 0.1, .size_noise_m = 0.02};
+  const msgs::Pose2 T_w_a{-5.0, 3.0, 0.3}, T_w_b{40.0, -2.0, -1.1};
+  msgs::ObjectMap a = View(world, {0, 1, 2, 3, 4, 5, 6, 7, 8}, T_w_a, 0, wo, &rng);
+  msgs::ObjectMap b = View(world, {3, 4, 5, 6, 7, 8, 9, 10, 11}, T_w_b, 0, wo, &rng);
+  a.map_heading_rad = 0.3;
+  b.map_heading_rad = -1.1;
+  MatcherOptions o;
+  o.landmarks = false;
+  o.min_assignments = 100;  // no spectral answer: the votes alone
+  o.heading_vote_min_inliers = 5;
+  const auto m = MatchObjectMaps(a, b, o);
+  EXPECT_EQ(m.status, MatchStatus::kTooFewAssignments);  // the spectral path's: no vote answer
+  o.max_vote_ambiguity = 1.01;  // without the ambiguity test the votes answer
+  const auto loose = MatchObjectMaps(a, b, o);
+  ASSERT_EQ(loose.status, MatchStatus::kMatched);
+  EXPECT_TRUE(loose.by_votes);
 }
 
 TEST(Matcher, CoverageAndMisses) {

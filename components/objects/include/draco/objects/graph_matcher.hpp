@@ -89,15 +89,18 @@ struct MatcherOptions {
   // difference in heading_vote_step_rad steps (the AHRS's error, not the whole gap); the
   // best-supported translation (b objects within heading_vote_inlier_m of an a object: below
   // half a pile spacing, so a grid shifted by half a spacing does not count as fitting) needs
-  // min_inliers and a distinct runner-up below max_vote_ambiguity of its support beyond a
-  // two-point sample (a grid shifted by one spacing: no answer). false: off.
+  // heading_vote_min_inliers and a distinct runner-up below max_vote_ambiguity of its support
+  // beyond a two-point sample (a grid shifted by one spacing: no answer). false: off.
+  // 8 and 0.5 were chosen on tuning seeds 1-20 with the marina and airplane missions: at 5 and
+  // 0.8, or 6 and 0.6, the votes answered 30-40 m off in the marina's clutter and left 2 of
+  // its 6 pairs unplaced (docs/safe-merges.md).
   bool heading_votes = true;
   double heading_vote_turn_rad = 0.1745;  // 10 deg
   double heading_vote_step_rad = 0.0349;  // 2 deg
   double heading_vote_cell_m = 2.0;
   double heading_vote_inlier_m = 1.5;
-  int heading_vote_min_inliers = 5;
-  double max_vote_ambiguity = 0.8;
+  int heading_vote_min_inliers = 8;
+  double max_vote_ambiguity = 0.5;
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
   // Verification (with miss_weight or the ambiguity test): hypotheses from pairs of each a
