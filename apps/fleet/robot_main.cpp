@@ -25,6 +25,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 #include "team_setup.hpp"
 
@@ -35,6 +36,7 @@ extern "C" void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-robot: one robot's SLAM daemon (local SLAM, team stages, fleet link)"};
+  draco::app::AddLogLevelOption(app);
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path;
@@ -77,7 +79,7 @@ int main(int argc, char** argv) {
 
   try {
     if (setup.mission_dir.empty() && setup.bag.empty()) {
-      std::cerr << "draco-robot: give --mission DIR or --bag FILE --team NAMES\n";
+      draco::log::Error("draco-robot: give --mission DIR or --bag FILE --team NAMES");
       return 1;
     }
     std::string source;
@@ -99,9 +101,10 @@ int main(int argc, char** argv) {
     }
     const auto it = std::find(setup.team.begin(), setup.team.end(), robot);
     if (it == setup.team.end()) {
-      std::cerr << "draco-robot: " << source << " has no robot '" << robot << "' (robots: ";
-      for (const auto& n : setup.team) std::cerr << n << " ";
-      std::cerr << ")\n";
+      std::string names;
+      for (const auto& n : setup.team) names += (names.empty() ? "" : " ") + n;
+      draco::log::Error("draco-robot: " + source + " has no robot '" + robot +
+                        "' (robots: " + names + ")");
       return 1;
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
@@ -109,7 +112,7 @@ int main(int argc, char** argv) {
     if (setup.transport == "dds") {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
       setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI
-      std::cerr << "draco-robot: " << robot << ": " << dds.Describe() << "\n";
+      draco::log::Info("draco-robot: " + robot + ": " + dds.Describe());
     }
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);
@@ -135,9 +138,9 @@ int main(int argc, char** argv) {
       if (end_s > 0.0) {
         run.until = draco::graph::Time::FromSeconds(end_s);
       } else {
-        std::cerr << "draco-robot: warning: no replay length from " << setup.mission_dir
-                  << "/<robot>/ahrs.csv (missing or unreadable last line): running to the end "
-                     "of the own recording\n";
+        draco::log::Warn("draco-robot: no replay length from " + setup.mission_dir +
+                         "/<robot>/ahrs.csv (missing or unreadable last line): running to the "
+                         "end of the own recording");
       }
     }
     if (rate > 0.0) {
@@ -153,22 +156,24 @@ int main(int argc, char** argv) {
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + robot + ".runtime_stats.json",
                                              result.stats.ToJson());
     if (!result.ok) {
-      std::cerr << "draco-robot: " << robot << ": " << result.error << "\n";
+      draco::log::Error("draco-robot: " + robot + ": " + result.error);
       return 1;
     }
     if (result.interrupted) {
-      std::cerr << "draco-robot: " << robot << ": stopped by a signal; outputs flushed in "
-                << out_dir << "\n";
+      draco::log::Warn("draco-robot: " + robot + ": stopped by a signal; outputs flushed in " +
+                       out_dir);
       return 0;
     }
-    std::printf("draco-robot: %s done (%.1f s of mission in %.1f s); outputs in %s\n",
-                robot.c_str(), result.stats.mission_s, result.stats.wall_s, out_dir.c_str());
+    char took[96];
+    std::snprintf(took, sizeof took, " done (%.1f s of mission in %.1f s); outputs in ",
+                  result.stats.mission_s, result.stats.wall_s);
+    draco::log::Info("draco-robot: " + robot + took + out_dir);
     return 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-robot: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-robot: ") + e.what());
     return 1;
   }
 }

@@ -156,8 +156,10 @@ std::string InvokeComponent(Node& node, Context& ctx, Reason reason, StatsRecord
   if (status.code() == Status::Code::kFatal || (!status.ok() && reason == Reason::kStart)) {
     return node.id + ": " + status.message();
   }
-  if (!status.ok() && recorder.RecordError(node.index) && log_errors) {
-    ctx.Log("error: " + status.message());
+  if (!status.ok()) {
+    recorder.RecordError(node.index);
+    // Rate-limited per component by the logger: a flood of errors is counted and summarised.
+    if (log_errors) ctx.Log(log::Level::kError, "error: " + status.message());
   }
   return "";
 }

@@ -1,4 +1,5 @@
 #include "draco/frontend/pipeline.hpp"
+#include "draco/log/log.hpp"
 
 #include <algorithm>
 #include <array>
@@ -204,7 +205,7 @@ std::vector<Robot> RunRobots(const std::string& mission, const recording::Missio
       try {
         const auto s = std::chrono::steady_clock::now();
         if (!(options.reuse && LoadKeyframes(cache, &r.kfs))) {
-          std::fprintf(stderr, "local SLAM of %s ...\n", r.name.c_str());
+          log::Info("local SLAM of " + r.name + " ...");
           r.kfs = RunLocalSlam(mission, r.name, static_cast<int>(i), options.graph_path,
                                out_dir + "/slam", options.overrides, options.jobs <= 1);
           SaveKeyframes(cache, r.kfs);

@@ -10,12 +10,14 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <source_location>
 #include <string>
 #include <typeindex>
 #include <vector>
 
 #include "draco/graph/port.hpp"
 #include "draco/graph/time.hpp"
+#include "draco/log/log.hpp"
 
 namespace draco::graph {
 
@@ -124,7 +126,15 @@ class Context {
   bool StopRequested() const { return stop_ != nullptr && stop_->load(); }
   void SetStopFlag(const std::atomic<bool>* stop) { stop_ = stop; }
 
-  void Log(const std::string& message) const;
+  // Logs "[<mission time> s] <id>: message" at `level` (draco/log/log.hpp); rate-limited
+  // per source line and component.
+  void Log(log::Level level, const std::string& message,
+           std::source_location where = std::source_location::current()) const;
+  // At info level.
+  void Log(const std::string& message,
+           std::source_location where = std::source_location::current()) const {
+    Log(log::Level::kInfo, message, where);
+  }
 
   // Set by the executor.
   void SetEvent(Reason reason, std::string timer) {
