@@ -119,8 +119,9 @@ int main(int argc, char** argv) {
                      " components, " + graph->settings.executor + " executor) into " +
                      options.output_dir);
     draco::graph::ProgressPrinter progress("draco: " + graph->settings.name, 0.0);
-    options.progress = [&](draco::graph::Time t) { progress.Update(t); };
+    options.progress = progress.Callback();
     const auto result = draco::graph::Run(*graph, options);
+    progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
     std::cout << result.stats.ToTable();
     const std::string stats_path = options.output_dir + "/runtime_stats.json";
     if (!draco::graph::WriteFileAtomically(stats_path, result.stats.ToJson())) {

@@ -110,7 +110,7 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   }
   draco::graph::ProgressPrinter progress("draco-fleet: in-process team",
                                          draco::fleet_app::MissionLengthS(o.mission, team));
-  run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+  run.progress = progress.Callback();
   const auto result = draco::graph::RunDeterministic(*graph, run);
   progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
   draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/runtime_stats.json", result.stats.ToJson());

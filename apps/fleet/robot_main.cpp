@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
-  app.add_flag("--quiet", quiet, "no progress line");
+  app.add_flag("--quiet", quiet, "no progress lines");
   app.set_version_flag("--version", draco::app::VersionLine("draco-robot"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
     draco::graph::ProgressPrinter progress(
         "draco-robot: " + robot,
         setup.bag.empty() ? draco::fleet_app::MissionLengthS(setup.mission_dir, {robot}) : 0.0);
-    if (!quiet) run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+    if (!quiet) run.progress = progress.Callback();
     const auto result = draco::graph::RunDeterministic(*graph, run);
     if (!quiet) progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + robot + ".runtime_stats.json",

@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
       run.stop_requested = &g_stop;
       draco::graph::ProgressPrinter progress(
           "draco-local-slam: " + name, draco::recording::RobotReplayLengthS(mission_dir, name));
-      run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+      run.progress = progress.Callback();
       const auto result = draco::graph::RunDeterministic(*graph, run);
       progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
       draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + name + ".runtime_stats.json",

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -127,6 +128,27 @@ bool WriteFileAtomically(const std::string& path, const std::string& text) {
   } catch (const std::runtime_error&) {
     return false;
   }
+}
+
+Time ExpectedEnd(const Graph& graph, const RunOptions& options) {
+  std::optional<Time> sources_end;
+  bool all_known = true;
+  for (const auto& n : graph.nodes) {
+    if (!n->is_source) continue;
+    std::optional<Time> end;
+    try {
+      end = n->component->SourceEndTime();
+    } catch (const std::exception&) {
+      end.reset();
+    }
+    if (!end) {
+      all_known = false;
+      continue;
+    }
+    sources_end = sources_end ? std::max(*sources_end, *end) : *end;
+  }
+  if (all_known && sources_end) return std::min(options.until, *sources_end);
+  return options.until;
 }
 
 namespace internal {

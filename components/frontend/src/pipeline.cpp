@@ -90,7 +90,7 @@ std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const st
   std::optional<graph::ProgressPrinter> printer;
   if (progress) {
     printer.emplace("local SLAM " + name, recording::RobotReplayLengthS(mission, name));
-    run.progress = [&](graph::Time t) { printer->Update(t); };
+    run.progress = printer->Callback();
   }
   const auto result = graph::RunDeterministic(*g, run);
   if (printer) printer->Finish(graph::Time::FromSeconds(result.stats.mission_s));

@@ -162,6 +162,9 @@ class Component {
   virtual Status Process(Context& ctx) = 0;
   // Sources only: mission time of the next emission; nullopt when exhausted.
   virtual std::optional<Time> NextSourceTime() { return std::nullopt; }
+  // Sources only, after Start(): the stamp of the last emission when known beforehand (a
+  // recording's length), for progress and ETA displays; nullopt when unknown.
+  virtual std::optional<Time> SourceEndTime() const { return std::nullopt; }
   // The run ends: flush outputs (messages published here are still delivered).
   virtual Status Stop(Context& /*ctx*/) { return Status::Ok(); }
 };
