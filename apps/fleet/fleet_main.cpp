@@ -69,7 +69,7 @@ struct Options {
   std::string out;
   std::string graph;       // default: graphs/robot.yaml from the data search path
   std::string dds_config;  // --dds-config as given; then the file chosen ("": $CYCLONEDDS_URI)
-  int domain = 0;
+  int domain = -1;         // < 0: the graph's link.domain_id
   std::vector<std::string> overrides;  // applied to every robot: component.param=value
   std::string kill;                    // robot to kill (dds)
   double kill_after_s = 0.0;           // wall seconds after start
@@ -142,8 +142,6 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
                                   robot,
                                   "--out",
                                   out_dir,
-                                  "--domain",
-                                  std::to_string(o.domain),
                                   "--graph",
                                   o.graph,
                                   "--rate",
@@ -153,6 +151,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
                                   std::string(draco::log::LevelName(draco::log::Global().level()))};
     // No --dds-config: the daemons read the same $CYCLONEDDS_URI.
     if (!o.dds_config.empty()) a.insert(a.end(), {"--dds-config", o.dds_config});
+    if (o.domain >= 0) a.insert(a.end(), {"--domain", std::to_string(o.domain)});
     for (const auto& x : o.overrides) {
       a.push_back("--set");
       a.push_back(x);
@@ -266,7 +265,9 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode, "dds, inproc or both")
       ->check(CLI::IsMember({"dds", "inproc", "both"}));
   app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
-  app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
+  app.add_option("--domain", o.domain,
+                 "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
+      ->check(CLI::Range(0, 230));
   app.add_option("--dds-config", o.dds_config,
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
                  "$CYCLONEDDS_URI when set, else loopback)");

@@ -64,7 +64,9 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
-  app.add_option("--domain", setup.domain_id, "DDS domain id")->check(CLI::Range(0, 230));
+  app.add_option("--domain", setup.domain_id,
+                 "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
+      ->check(CLI::Range(0, 230));
   app.add_option("--dds-config", dds_config,
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
                  "$CYCLONEDDS_URI when set, else loopback)");

@@ -582,6 +582,7 @@ std::string LinkEndpoint::StatsJson() const {
                       {"transport_frames_received", tc.frames_received},
                       {"transport_frames_malformed", tc.frames_malformed},
                       {"transport_frames_own", tc.frames_own},
+                      {"transport_peers_lost", tc.peers_lost},
                       {"transport_send_failed", tc.send_failed}}},
                     {"teammates", teammates}};
   return out.dump(2) + "\n";
