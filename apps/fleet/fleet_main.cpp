@@ -158,6 +158,10 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
     }
     return a;
   };
+  // The daemons take their input from the command line only: a DRACO_BAG or DRACO_TEAM left in
+  // the environment (draco-robot's stand-ins for --bag, --team) would contradict --mission.
+  ::unsetenv("DRACO_BAG");
+  ::unsetenv("DRACO_TEAM");
   std::map<std::string, pid_t> pids;
   std::map<std::string, int> codes;
   for (const auto& r : team) {

@@ -47,17 +47,24 @@ int main(int argc, char** argv) {
   double rate = 0.0;
   bool no_lockstep = false;
   bool quiet = false;
-  auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder");
+  // The DRACO_* variables stand in for options not given (systemd's environment file,
+  // config/systemd/robot.env.example).
+  auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder")
+                          ->envname("DRACO_MISSION");
   auto* bag_opt =
       app.add_option("--bag", setup.bag, "ROS 1 bag of this robot (instead of --mission)")
-          ->check(CLI::ExistingFile);
+          ->check(CLI::ExistingFile)
+          ->envname("DRACO_BAG");
   mission_opt->excludes(bag_opt);
   auto* team_opt = app.add_option("--team", team_list,
                                   "with --bag: the team's robot names in id order, e.g. "
-                                  "alpha,bravo,charlie");
+                                  "alpha,bravo,charlie")
+                       ->envname("DRACO_TEAM");
   team_opt->needs(bag_opt);
   bag_opt->needs(team_opt);
-  app.add_option("--robot", robot, "robot name in the mission (or in --team)")->required();
+  app.add_option("--robot", robot, "robot name in the mission (or in --team)")
+      ->required()
+      ->envname("DRACO_ROBOT");
   app.add_option("--graph", graph_path,
                  "robot graph YAML (default graphs/robot.yaml, graphs/robot-bag.yaml with --bag, "
                  "from the data search path)");
@@ -66,10 +73,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"dds", "inproc"}));
   app.add_option("--domain", setup.domain_id,
                  "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
-      ->check(CLI::Range(0, 230));
+      ->check(CLI::Range(0, 230))
+      ->envname("DRACO_DOMAIN");
   app.add_option("--dds-config", dds_config,
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
-                 "$CYCLONEDDS_URI when set, else loopback)");
+                 "$CYCLONEDDS_URI when set, else loopback)")
+      ->envname("DRACO_DDS_CONFIG");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
