@@ -18,6 +18,7 @@
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 
 namespace {
@@ -44,6 +45,8 @@ std::string DefaultRunDir(const std::string& graph_name) {
 
 int main(int argc, char** argv) {
   CLI::App app{"draco: distributed sonar SLAM runtime"};
+  draco::app::AddLogLevelOption(app);
+  app.fallthrough();  // --log-level after the subcommand too
   app.set_version_flag("--version", draco::app::VersionLine("draco"));
   app.require_subcommand(1);
 
@@ -112,29 +115,31 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
 
-    std::cerr << "draco: running " << graph_path << " (" << graph->nodes.size() << " components, "
-              << graph->settings.executor << " executor) into " << options.output_dir << "\n";
+    draco::log::Info("draco: running " + graph_path + " (" + std::to_string(graph->nodes.size()) +
+                     " components, " + graph->settings.executor + " executor) into " +
+                     options.output_dir);
     draco::graph::ProgressPrinter progress("draco: " + graph->settings.name, 0.0);
-    options.progress = [&](draco::graph::Time t) { progress.Update(t); };
+    options.progress = progress.Callback();
     const auto result = draco::graph::Run(*graph, options);
+    progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
     std::cout << result.stats.ToTable();
     const std::string stats_path = options.output_dir + "/runtime_stats.json";
     if (!draco::graph::WriteFileAtomically(stats_path, result.stats.ToJson())) {
-      std::cerr << "draco: cannot write " << stats_path << "\n";
+      draco::log::Error("draco: cannot write " + stats_path);
       return 1;
     }
     std::cout << "run folder: " << options.output_dir << "\n";
-    if (result.interrupted) std::cerr << "draco: interrupted; outputs flushed\n";
+    if (result.interrupted) draco::log::Warn("draco: interrupted; outputs flushed");
     if (!result.ok) {
-      std::cerr << "draco: run failed: " << result.error << "\n";
+      draco::log::Error("draco: run failed: " + result.error);
       return 1;
     }
     return 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco: " << e.what() << "\n";
+    draco::log::Error(std::string("draco: ") + e.what());
     return 1;
   }
 }

@@ -21,6 +21,7 @@
 #include "draco/report/run_report.hpp"
 #include "draco/report/team_run.hpp"
 #include "frames.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 
 namespace fs = std::filesystem;
@@ -34,7 +35,11 @@ class Steps {
   void Next(const std::string& what) {
     const double s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    std::fprintf(stderr, "draco-eval: [%d/%d] %s (%.1f s)\n", ++done_, total_, what.c_str(), s);
+    char line[64];
+    std::snprintf(line, sizeof line, "draco-eval: [%d/%d] ", ++done_, total_);
+    char took[32];
+    std::snprintf(took, sizeof took, " (%.1f s)", s);
+    draco::log::Info(line + what + took);
   }
 
  private:
@@ -47,6 +52,7 @@ class Steps {
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-eval: trajectory accuracy, figures and report of a run folder"};
+  draco::app::AddLogLevelOption(app);
   std::string run_dir;
   double max_ratio = 0.0;
   bool no_report = false;
@@ -68,7 +74,7 @@ int main(int argc, char** argv) {
   Steps steps(1 + (team_run ? 1 : 0) + (no_report ? 0 : 2) + (with_frames ? 1 : 0));
   steps.Next("accuracy per robot");
   const auto ev = draco::report::EvaluateRun(run_dir);
-  for (const auto& p : ev.problems) std::cerr << "draco-eval: " << p << "\n";
+  for (const auto& p : ev.problems) draco::log::Warn("draco-eval: " + p);
   std::printf("%-12s %6s %9s %11s %11s %7s %11s %11s\n", "robot", "kfs", "path m", "DR ATE m",
               "SLAM ATE m", "ratio", "DR RPE m", "SLAM RPE m");
   bool over = false;
@@ -81,7 +87,7 @@ int main(int argc, char** argv) {
                 r.keyframes, r.path_m, dr_ate, r.slam_ate_m, ratio, dr_rpe, r.slam_rpe_m);
   }
   if (ev.robots.empty()) {
-    std::cerr << "draco-eval: nothing to evaluate in " << run_dir << "\n";
+    draco::log::Error("draco-eval: nothing to evaluate in " + run_dir);
     return 1;
   }
   draco::report::TeamResult team;
@@ -90,10 +96,10 @@ int main(int argc, char** argv) {
     try {
       team = draco::report::EvaluateTeamRun(run_dir, frames.mission_dir);
     } catch (const std::exception& e) {
-      std::cerr << "draco-eval: team run: " << e.what() << "\n";
+      draco::log::Error(std::string("draco-eval: team run: ") + e.what());
       return 1;
     }
-    for (const auto& p : team.problems) std::cerr << "draco-eval: " << p << "\n";
+    for (const auto& p : team.problems) draco::log::Warn("draco-eval: " + p);
     std::printf("\n%s", draco::report::FormatTeamResult(team, "team run").c_str());
     const auto& c = team.distinct_loops;
     if (team.has_truth) {
@@ -145,7 +151,7 @@ int main(int argc, char** argv) {
                                "report.");
       std::printf("report: %s\n", fs::absolute(path).string().c_str());
     } catch (const std::exception& e) {
-      std::cerr << "draco-eval: report: " << e.what() << "\n";
+      draco::log::Error(std::string("draco-eval: report: ") + e.what());
       return 1;
     }
   }

@@ -22,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstdarg>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -38,6 +39,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
+#include "log_option.hpp"
 #include "process.hpp"
 #include "run_info.hpp"
 #include "team_setup.hpp"
@@ -50,12 +52,24 @@ using draco::fleet_app::Spawn;
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop = true; }
 
+// A status line of the team run at info level (stderr), printf-style.
+[[gnu::format(printf, 1, 2)]] void Status(const char* format, ...) {
+  char line[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(line, sizeof line, format, args);
+  va_end(args);
+  std::string text(line);
+  if (!text.empty() && text.back() == '\n') text.pop_back();
+  draco::log::Info(text);
+}
+
 struct Options {
   std::string mission;
   std::string out;
   std::string graph;       // default: graphs/robot.yaml from the data search path
   std::string dds_config;  // --dds-config as given; then the file chosen ("": $CYCLONEDDS_URI)
-  int domain = 0;
+  int domain = -1;         // < 0: the graph's link.domain_id
   std::vector<std::string> overrides;  // applied to every robot: component.param=value
   std::string kill;                    // robot to kill (dds)
   double kill_after_s = 0.0;           // wall seconds after start
@@ -91,24 +105,24 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   if (const double end_s = draco::fleet_app::MissionLengthS(o.mission, team); end_s > 0.0) {
     run.until = draco::graph::Time::FromSeconds(end_s);
   } else {
-    std::cerr << "draco-fleet: warning: no replay length from " << o.mission
-              << "/<robot>/ahrs.csv: running until every recording ends\n";
+    draco::log::Warn("draco-fleet: no replay length from " + o.mission +
+                     "/<robot>/ahrs.csv: running until every recording ends");
   }
   draco::graph::ProgressPrinter progress("draco-fleet: in-process team",
                                          draco::fleet_app::MissionLengthS(o.mission, team));
-  run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+  run.progress = progress.Callback();
   const auto result = draco::graph::RunDeterministic(*graph, run);
   progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
   draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/runtime_stats.json", result.stats.ToJson());
   if (!result.ok) {
-    std::cerr << "draco-fleet: in-process run failed: " << result.error << "\n";
+    draco::log::Error("draco-fleet: in-process run failed: " + result.error);
     return 1;
   }
   if (result.interrupted) {
-    std::cerr << "draco-fleet: interrupted\n";
+    draco::log::Warn("draco-fleet: interrupted");
     return 1;
   }
-  std::printf("draco-fleet: in-process team done in %.1f s\n", result.stats.wall_s);
+  Status("draco-fleet: in-process team done in %.1f s\n", result.stats.wall_s);
   return 0;
 }
 
@@ -117,7 +131,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
   fs::create_directories(out_dir);
   const auto robot_bin = draco::fleet_app::SiblingApp("draco-robot", "fleet").string();
   if (!fs::exists(robot_bin)) {
-    std::cerr << "draco-fleet: " << robot_bin << " not found (build the draco-robot target)\n";
+    draco::log::Error("draco-fleet: " + robot_bin + " not found (build the draco-robot target)");
     return 1;
   }
   auto args_for = [&](const std::string& robot) {
@@ -128,21 +142,26 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
                                   robot,
                                   "--out",
                                   out_dir,
-                                  "--domain",
-                                  std::to_string(o.domain),
                                   "--graph",
                                   o.graph,
                                   "--rate",
                                   std::to_string(o.rate),
-                                  "--quiet"};
+                                  "--quiet",
+                                  "--log-level",
+                                  std::string(draco::log::LevelName(draco::log::Global().level()))};
     // No --dds-config: the daemons read the same $CYCLONEDDS_URI.
     if (!o.dds_config.empty()) a.insert(a.end(), {"--dds-config", o.dds_config});
+    if (o.domain >= 0) a.insert(a.end(), {"--domain", std::to_string(o.domain)});
     for (const auto& x : o.overrides) {
       a.push_back("--set");
       a.push_back(x);
     }
     return a;
   };
+  // The daemons take their input from the command line only: a DRACO_BAG or DRACO_TEAM left in
+  // the environment (draco-robot's stand-ins for --bag, --team) would contradict --mission.
+  ::unsetenv("DRACO_BAG");
+  ::unsetenv("DRACO_TEAM");
   std::map<std::string, pid_t> pids;
   std::map<std::string, int> codes;
   for (const auto& r : team) {
@@ -150,7 +169,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
     std::error_code ec;
     fs::remove(log, ec);
     pids[r] = Spawn(args_for(r), log);
-    std::printf("draco-fleet: started %s (pid %d, log %s)\n", r.c_str(), pids[r], log.c_str());
+    Status("draco-fleet: started %s (pid %d, log %s)\n", r.c_str(), pids[r], log.c_str());
   }
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
@@ -174,11 +193,11 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
                                 WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
         if (!was_killed) {
           codes[it->first] = code;
-          std::printf("draco-fleet: %s finished (exit %d) after %.1f s\n", it->first.c_str(), code,
-                      elapsed());
+          Status("draco-fleet: %s finished (exit %d) after %.1f s\n", it->first.c_str(), code,
+                 elapsed());
           pids.erase(it);
         } else {
-          std::printf("draco-fleet: %s killed at %.1f s\n", it->first.c_str(), killed_at);
+          Status("draco-fleet: %s killed at %.1f s\n", it->first.c_str(), killed_at);
           it->second = -1;  // waiting for the restart
         }
         std::fflush(stdout);
@@ -209,8 +228,8 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
         elapsed() >= killed_at + o.restart_after_s && pids.count(o.kill) && pids[o.kill] < 0) {
       pids[o.kill] = Spawn(args_for(o.kill), out_dir + "/" + o.kill + ".log");
       restarted = true;
-      std::printf("draco-fleet: restarted %s (pid %d) at %.1f s\n", o.kill.c_str(), pids[o.kill],
-                  elapsed());
+      Status("draco-fleet: restarted %s (pid %d) at %.1f s\n", o.kill.c_str(), pids[o.kill],
+             elapsed());
       std::fflush(stdout);
     }
     if (killed && (o.restart_after_s < 0 || stopping) && pids.count(o.kill) && pids[o.kill] < 0) {
@@ -219,12 +238,13 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
     }
     if (!timed_out && elapsed() > o.timeout_s) {
       timed_out = true;
-      std::cerr << "draco-fleet: timeout after " << o.timeout_s << " s; stopping the daemons\n";
+      draco::log::Error("draco-fleet: timeout after " + std::to_string(o.timeout_s) +
+                        " s; stopping the daemons");
       g_stop = true;  // SIGTERM now, SIGKILL after the grace period
     }
     if (elapsed() - last_note > 30.0) {
       last_note = elapsed();
-      std::printf("draco-fleet: %zu daemon(s) running, %.0f s\n", pids.size(), elapsed());
+      Status("draco-fleet: %zu daemon(s) running, %.0f s\n", pids.size(), elapsed());
       std::fflush(stdout);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -233,7 +253,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
   for (const auto& [r, c] : codes) {
     if (c != 0 && !(r == o.kill && o.restart_after_s < 0)) worst = 1;
   }
-  std::printf("draco-fleet: DDS team done in %.1f s\n", elapsed());
+  Status("draco-fleet: DDS team done in %.1f s\n", elapsed());
   return worst;
 }
 
@@ -241,6 +261,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-fleet: a whole team on a recorded mission, over DDS and/or in-process"};
+  draco::app::AddLogLevelOption(app);
   Options o;
   std::string mode = "both";
   app.add_option("mission", o.mission, "recorded mission folder")->required();
@@ -248,7 +269,9 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode, "dds, inproc or both")
       ->check(CLI::IsMember({"dds", "inproc", "both"}));
   app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
-  app.add_option("--domain", o.domain, "DDS domain id")->check(CLI::Range(0, 230));
+  app.add_option("--domain", o.domain,
+                 "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
+      ->check(CLI::Range(0, 230));
   app.add_option("--dds-config", o.dds_config,
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
                  "$CYCLONEDDS_URI when set, else loopback)");
@@ -270,7 +293,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> team;
     for (const auto& r : info.robots) team.push_back(r.name);
     if (!o.kill.empty() && std::find(team.begin(), team.end(), o.kill) == team.end()) {
-      std::cerr << "draco-fleet: --kill " << o.kill << ": no such robot in the mission\n";
+      draco::log::Error("draco-fleet: --kill " + o.kill + ": no such robot in the mission");
       return 1;
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
@@ -278,7 +301,7 @@ int main(int argc, char** argv) {
     if (mode != "inproc") {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(o.dds_config);
       o.dds_config = dds.file;
-      std::printf("draco-fleet: %s\n", dds.Describe().c_str());
+      Status("draco-fleet: %s\n", dds.Describe().c_str());
     }
     fs::create_directories(o.out);
     auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
@@ -338,10 +361,10 @@ int main(int argc, char** argv) {
     std::printf("\nreport: %s/fleet_report.md\n", o.out.c_str());
     return rc;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-fleet: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-fleet: ") + e.what());
     return 1;
   }
 }

@@ -38,6 +38,7 @@ pid_t Spawn(const std::vector<std::string>& args, const std::string& log_path) {
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     ::execv(argv[0], argv.data());
+    // In the forked child: plain stdio only (the logger's lock may be held by another thread).
     std::fprintf(stderr, "cannot run %s: %s\n", argv[0], std::strerror(errno));
     ::_exit(127);
   }

@@ -25,6 +25,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 #include "team_setup.hpp"
 
@@ -35,6 +36,7 @@ extern "C" void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-robot: one robot's SLAM daemon (local SLAM, team stages, fleet link)"};
+  draco::app::AddLogLevelOption(app);
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path;
@@ -45,31 +47,42 @@ int main(int argc, char** argv) {
   double rate = 0.0;
   bool no_lockstep = false;
   bool quiet = false;
-  auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder");
+  // The DRACO_* variables stand in for options not given (systemd's environment file,
+  // config/systemd/robot.env.example).
+  auto* mission_opt = app.add_option("--mission", setup.mission_dir, "recorded mission folder")
+                          ->envname("DRACO_MISSION");
   auto* bag_opt =
       app.add_option("--bag", setup.bag, "ROS 1 bag of this robot (instead of --mission)")
-          ->check(CLI::ExistingFile);
+          ->check(CLI::ExistingFile)
+          ->envname("DRACO_BAG");
   mission_opt->excludes(bag_opt);
   auto* team_opt = app.add_option("--team", team_list,
                                   "with --bag: the team's robot names in id order, e.g. "
-                                  "alpha,bravo,charlie");
+                                  "alpha,bravo,charlie")
+                       ->envname("DRACO_TEAM");
   team_opt->needs(bag_opt);
   bag_opt->needs(team_opt);
-  app.add_option("--robot", robot, "robot name in the mission (or in --team)")->required();
+  app.add_option("--robot", robot, "robot name in the mission (or in --team)")
+      ->required()
+      ->envname("DRACO_ROBOT");
   app.add_option("--graph", graph_path,
                  "robot graph YAML (default graphs/robot.yaml, graphs/robot-bag.yaml with --bag, "
                  "from the data search path)");
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
   app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
       ->check(CLI::IsMember({"dds", "inproc"}));
-  app.add_option("--domain", setup.domain_id, "DDS domain id")->check(CLI::Range(0, 230));
+  app.add_option("--domain", setup.domain_id,
+                 "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
+      ->check(CLI::Range(0, 230))
+      ->envname("DRACO_DOMAIN");
   app.add_option("--dds-config", dds_config,
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
-                 "$CYCLONEDDS_URI when set, else loopback)");
+                 "$CYCLONEDDS_URI when set, else loopback)")
+      ->envname("DRACO_DDS_CONFIG");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
-  app.add_flag("--quiet", quiet, "no progress line");
+  app.add_flag("--quiet", quiet, "no progress lines");
   app.set_version_flag("--version", draco::app::VersionLine("draco-robot"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);
@@ -77,7 +90,7 @@ int main(int argc, char** argv) {
 
   try {
     if (setup.mission_dir.empty() && setup.bag.empty()) {
-      std::cerr << "draco-robot: give --mission DIR or --bag FILE --team NAMES\n";
+      draco::log::Error("draco-robot: give --mission DIR or --bag FILE --team NAMES");
       return 1;
     }
     std::string source;
@@ -99,9 +112,10 @@ int main(int argc, char** argv) {
     }
     const auto it = std::find(setup.team.begin(), setup.team.end(), robot);
     if (it == setup.team.end()) {
-      std::cerr << "draco-robot: " << source << " has no robot '" << robot << "' (robots: ";
-      for (const auto& n : setup.team) std::cerr << n << " ";
-      std::cerr << ")\n";
+      std::string names;
+      for (const auto& n : setup.team) names += (names.empty() ? "" : " ") + n;
+      draco::log::Error("draco-robot: " + source + " has no robot '" + robot +
+                        "' (robots: " + names + ")");
       return 1;
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
@@ -109,7 +123,7 @@ int main(int argc, char** argv) {
     if (setup.transport == "dds") {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
       setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI
-      std::cerr << "draco-robot: " << robot << ": " << dds.Describe() << "\n";
+      draco::log::Info("draco-robot: " + robot + ": " + dds.Describe());
     }
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);
@@ -135,9 +149,9 @@ int main(int argc, char** argv) {
       if (end_s > 0.0) {
         run.until = draco::graph::Time::FromSeconds(end_s);
       } else {
-        std::cerr << "draco-robot: warning: no replay length from " << setup.mission_dir
-                  << "/<robot>/ahrs.csv (missing or unreadable last line): running to the end "
-                     "of the own recording\n";
+        draco::log::Warn("draco-robot: no replay length from " + setup.mission_dir +
+                         "/<robot>/ahrs.csv (missing or unreadable last line): running to the "
+                         "end of the own recording");
       }
     }
     if (rate > 0.0) {
@@ -147,28 +161,30 @@ int main(int argc, char** argv) {
     draco::graph::ProgressPrinter progress(
         "draco-robot: " + robot,
         setup.bag.empty() ? draco::fleet_app::MissionLengthS(setup.mission_dir, {robot}) : 0.0);
-    if (!quiet) run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+    if (!quiet) run.progress = progress.Callback();
     const auto result = draco::graph::RunDeterministic(*graph, run);
     if (!quiet) progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
     draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + robot + ".runtime_stats.json",
                                              result.stats.ToJson());
     if (!result.ok) {
-      std::cerr << "draco-robot: " << robot << ": " << result.error << "\n";
+      draco::log::Error("draco-robot: " + robot + ": " + result.error);
       return 1;
     }
     if (result.interrupted) {
-      std::cerr << "draco-robot: " << robot << ": stopped by a signal; outputs flushed in "
-                << out_dir << "\n";
+      draco::log::Warn("draco-robot: " + robot + ": stopped by a signal; outputs flushed in " +
+                       out_dir);
       return 0;
     }
-    std::printf("draco-robot: %s done (%.1f s of mission in %.1f s); outputs in %s\n",
-                robot.c_str(), result.stats.mission_s, result.stats.wall_s, out_dir.c_str());
+    char took[96];
+    std::snprintf(took, sizeof took, " done (%.1f s of mission in %.1f s); outputs in ",
+                  result.stats.mission_s, result.stats.wall_s);
+    draco::log::Info("draco-robot: " + robot + took + out_dir);
     return 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-robot: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-robot: ") + e.what());
     return 1;
   }
 }

@@ -75,10 +75,10 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
       p + "link.prefix=" + name + ".",
       p + "link.transport=" + s.transport,
       p + "link.bus=" + s.bus,
-      p + "link.domain_id=" + std::to_string(s.domain_id),
       p + "link.lockstep=" + std::string(s.lockstep ? "true" : "false"),
   };
   o.insert(o.end(), common.begin(), common.end());
+  if (s.domain_id >= 0) o.push_back(p + "link.domain_id=" + std::to_string(s.domain_id));
   if (!s.dds_config.empty()) o.push_back(p + "link.dds_config=" + s.dds_config);
   if (Airplane(s.world)) {
     // As draco-team-eval: nearer candidates on the airplane (docs/front-end.md).

@@ -17,7 +17,7 @@ struct RobotSetup {
   std::string world;              // the mission's world (selection radius on the airplane)
   std::string transport = "dds";  // or "inproc"
   std::string bus = "team";
-  int domain_id = 0;
+  int domain_id = -1;  // DDS domain; < 0: the graph's (link.domain_id)
   std::string dds_config;
   bool lockstep = true;
 };

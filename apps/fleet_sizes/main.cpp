@@ -18,6 +18,7 @@
 #include "draco/fleet/codec.hpp"
 #include "draco/frontend/pipeline.hpp"
 #include "draco/objects/object_mapper.hpp"
+#include "log_option.hpp"
 #include "points.hpp"  // private to the codec: the individual point codings
 
 namespace {
@@ -69,6 +70,7 @@ std::vector<msgs::Point2> Voxel(const std::vector<msgs::Point2>& in, double cell
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-fleet-sizes: fleet message sizes on recorded keyframes"};
+  draco::app::AddLogLevelOption(app);
   std::vector<std::string> files;
   double period_s = 10.0;
   app.add_option("keyframes", files, "keyframe caches (OUT/slam/<robot>.keyframes.bin)")
@@ -93,10 +95,11 @@ int main(int argc, char** argv) {
   for (const auto& file : files) {
     std::vector<registration::KeyframeScan> kfs;
     if (!frontend::LoadKeyframes(file, &kfs)) {
-      std::fprintf(stderr, "cannot read %s\n", file.c_str());
+      draco::log::Error("draco-fleet-sizes: cannot read " + file);
       return 1;
     }
-    std::fprintf(stderr, "%s: %zu keyframes\n", file.c_str(), kfs.size());
+    draco::log::Info("draco-fleet-sizes: " + file + ": " + std::to_string(kfs.size()) +
+                     " keyframes");
 
     // Scan replies.
     for (const auto& k : kfs) {

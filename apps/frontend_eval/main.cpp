@@ -29,6 +29,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/report/figures.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 
 namespace {
@@ -50,6 +51,7 @@ struct Row {  // one registration
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-frontend-eval: inter-robot loop-closure precision (paper Fig. 3)"};
+  draco::app::AddLogLevelOption(app);
   std::string mission;
   std::string out_dir;
   std::string graph_path;  // default: graphs/local-slam.yaml from the data search path
@@ -500,10 +502,10 @@ int main(int argc, char** argv) {
     std::printf("CSVs and fig3.png in %s\n", out_dir.c_str());
     return 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-frontend-eval: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-frontend-eval: ") + e.what());
     return 1;
   }
 }

@@ -20,6 +20,7 @@
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
 #include "draco/recording/recording.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 
 namespace {
@@ -30,6 +31,7 @@ extern "C" void OnSignal(int) { g_stop = true; }
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-local-slam: single-robot local SLAM replay with ATE"};
+  draco::app::AddLogLevelOption(app);
   std::string mission_dir;
   std::string robot;
   std::string graph_path;  // default: graphs/local-slam.yaml from the data search path
@@ -61,8 +63,8 @@ int main(int argc, char** argv) {
       if (robot.empty() || r.name == robot) robots.push_back(r.name);
     }
     if (robots.empty()) {
-      std::cerr << "draco-local-slam: mission " << mission_dir << " has no robot '" << robot
-                << "'\n";
+      draco::log::Error("draco-local-slam: mission " + mission_dir + " has no robot '" + robot +
+                        "'");
       return 1;
     }
     struct Row {
@@ -82,17 +84,17 @@ int main(int argc, char** argv) {
       run.stop_requested = &g_stop;
       draco::graph::ProgressPrinter progress(
           "draco-local-slam: " + name, draco::recording::RobotReplayLengthS(mission_dir, name));
-      run.progress = [&](draco::graph::Time t) { progress.Update(t); };
+      run.progress = progress.Callback();
       const auto result = draco::graph::RunDeterministic(*graph, run);
       progress.Finish(draco::graph::Time::FromSeconds(result.stats.mission_s));
       draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + name + ".runtime_stats.json",
                                                result.stats.ToJson());
       if (!result.ok) {
-        std::cerr << "draco-local-slam: " << name << ": " << result.error << "\n";
+        draco::log::Error("draco-local-slam: " + name + ": " + result.error);
         return 1;
       }
       if (result.interrupted) {
-        std::cerr << "draco-local-slam: interrupted\n";
+        draco::log::Warn("draco-local-slam: interrupted");
         return 1;
       }
       const auto est = draco::eval::ReadTum(out_dir + "/" + name + ".trajectory.tum");
@@ -116,10 +118,10 @@ int main(int argc, char** argv) {
     std::printf("outputs in %s\n", out_dir.c_str());
     return over ? 2 : 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-local-slam: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-local-slam: ") + e.what());
     return 1;
   }
 }

@@ -28,6 +28,7 @@
 #include "draco/sim/sonar_model.hpp"
 #include "draco/sim/trajectory.hpp"
 #include "draco/sim/world.hpp"
+#include "log_option.hpp"
 #include "mission_output.hpp"
 #include "pictures.hpp"
 #include "run_info.hpp"
@@ -338,6 +339,8 @@ int RunGenerate(std::uint64_t seed, const std::string& out_dir, const std::strin
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-sim: forward-looking sonar mission simulator"};
+  draco::app::AddLogLevelOption(app);
+  app.fallthrough();  // --log-level after `generate` too
   std::string mission_file;
   std::string out_dir;
   std::string world_file;
@@ -395,8 +398,9 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (mission_file.empty() || out_opt->count() == 0) {
-      std::cerr << "draco-sim: give MISSION.yaml and --out DIR (or --world W --picture P, or "
-                   "generate --seed N --out DIR)\n";
+      draco::log::Error(
+          "draco-sim: give MISSION.yaml and --out DIR (or --world W --picture P, or generate "
+          "--seed N --out DIR)");
       return 2;
     }
     return RunMission(mission_file, out_dir,
@@ -405,7 +409,7 @@ int main(int argc, char** argv) {
                       robots_opt->count() ? std::optional<int>(robots) : std::nullopt, threads,
                       !no_pictures, !no_sonar, run_info);
   } catch (const std::exception& e) {
-    std::cerr << "draco-sim: error: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-sim: ") + e.what());
     return 1;
   }
 }

@@ -44,6 +44,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/team/team_pgo.hpp"
+#include "log_option.hpp"
 #include "run_info.hpp"
 
 namespace {
@@ -158,6 +159,7 @@ constexpr int kRows = 6;
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-team-eval: ATE of two-step / full PGO with PCM / GCM (paper Table III)"};
+  draco::app::AddLogLevelOption(app);
   std::string mission;
   std::string out_dir;
   fe::SlamRunOptions slam;
@@ -242,7 +244,8 @@ int main(int argc, char** argv) {
   const bool graph_covariance = pose_covariance == "graph";
   inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
   if (!(inject.fraction >= 0.0 && inject.fraction < 1.0)) {
-    std::cerr << "draco-team-eval: --inject " << inject.fraction << " is outside [0, 1)\n";
+    draco::log::Error("draco-team-eval: --inject " + std::to_string(inject.fraction) +
+                      " is outside [0, 1)");
     return 2;
   }
   ro.min_overlap = 0.0;
@@ -251,7 +254,7 @@ int main(int argc, char** argv) {
                                                     : team::GlobalAnchor::kTouchedPoses;
   if (loop_sigma_m > 0 || loop_sigma_deg > 0) {
     if (!(loop_sigma_m > 0 && loop_sigma_deg > 0)) {
-      std::cerr << "draco-team-eval: --loop-sigma-m and --loop-sigma-deg go together\n";
+      draco::log::Error("draco-team-eval: --loop-sigma-m and --loop-sigma-deg go together");
       return 2;
     }
     two_step.loop_information_from_covariance = full_options.loop_information_from_covariance =
@@ -587,10 +590,10 @@ int main(int argc, char** argv) {
                 out_dir.c_str(), out_dir.c_str());
     return 0;
   } catch (const draco::graph::GraphError& e) {
-    std::cerr << e.what() << "\n";
+    draco::log::Error(e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::cerr << "draco-team-eval: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-team-eval: ") + e.what());
     return 1;
   }
 }

@@ -27,6 +27,7 @@
 #include "draco/graph/executor.hpp"
 #include "draco/report/placements.hpp"
 #include "draco/report/team_run.hpp"
+#include "log_option.hpp"
 #include "process.hpp"
 #include "run_info.hpp"
 
@@ -147,9 +148,12 @@ WorldRow Evaluate(const std::string& name, const std::string& run_dir,
   std::stringstream in(csv);
   std::string line;
   while (std::getline(in, line)) *pairs_csv += name + "," + line + "\n";
-  for (const auto& p : pl.problems) std::cerr << "draco-worlds: " << name << ": " << p << "\n";
+  for (const auto& p : pl.problems) draco::log::Warn("draco-worlds: " + name + ": " + p);
   return w;
 }
+
+// This process's --log-level, for the apps it starts.
+std::string LogLevel() { return std::string(draco::log::LevelName(draco::log::Global().level())); }
 
 std::string Fmt(double v, const char* f = "%.2f") {
   if (std::isnan(v)) return "-";
@@ -233,6 +237,7 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
 
 int main(int argc, char** argv) {
   CLI::App app{"draco-worlds: the team on generated worlds (the generalization benchmark)"};
+  draco::app::AddLogLevelOption(app);
   std::string seeds_text, out = "runs/worlds", style;
   std::vector<std::string> missions, overrides;
   int robots = 0;
@@ -251,7 +256,7 @@ int main(int argc, char** argv) {
   try {
     const auto seeds = seeds_text.empty() ? std::vector<std::uint64_t>{} : ParseSeeds(seeds_text);
     if (seeds.empty() && missions.empty()) {
-      std::cerr << "draco-worlds: nothing to run (give --seeds and/or --mission)\n";
+      draco::log::Error("draco-worlds: nothing to run (give --seeds and/or --mission)");
       return 2;
     }
     // Next to draco-worlds when installed, in their build-tree folders otherwise.
@@ -319,7 +324,8 @@ int main(int argc, char** argv) {
       if (w.status == "ok") {
         std::printf("team, ");
         std::fflush(stdout);
-        std::vector<std::string> args{fleet, mission_dir, "--mode", "inproc", "--out", run};
+        std::vector<std::string> args{fleet,   mission_dir, "--mode",      "inproc",
+                                      "--out", run,         "--log-level", LogLevel()};
         for (const auto& o : overrides) args.insert(args.end(), {"--set", o});
         if (RunAndWait(args, log) != 0) w.status = "team run failed";
       }
@@ -339,7 +345,7 @@ int main(int argc, char** argv) {
     std::printf("\n%s\n%s/worlds.md\n", WorldsMarkdown(rows).c_str(), out.c_str());
     return 0;
   } catch (const std::exception& e) {
-    std::cerr << "draco-worlds: " << e.what() << "\n";
+    draco::log::Error(std::string("draco-worlds: ") + e.what());
     return 1;
   }
 }

@@ -161,8 +161,12 @@ void Spec::Param(const std::string& name, std::vector<std::string>* target, Para
   AddParam(name, ParamType::kStringList, target, std::move(info));
 }
 
-void Context::Log(const std::string& message) const {
-  std::fprintf(stderr, "[%10.3f %s] %s\n", now_->Seconds(), id_.c_str(), message.c_str());
+void Context::Log(log::Level level, const std::string& message, std::source_location where) const {
+  auto& logger = log::Global();
+  if (!logger.Enabled(level)) return;
+  char stamp[32];
+  std::snprintf(stamp, sizeof stamp, "[%.3f s] ", now_->Seconds());
+  logger.Write(level, stamp + id_ + ": " + message, where, id_);
 }
 
 Registry& Registry::Global() {
@@ -172,6 +176,7 @@ Registry& Registry::Global() {
 
 bool Registry::Add(const std::string& type, Factory factory) {
   if (Find(type) != nullptr) {
+    // Before main(): a programming error (two DRACO_REGISTER_COMPONENT with one name).
     std::fprintf(stderr, "draco: component type '%s' registered twice\n", type.c_str());
     std::abort();
   }

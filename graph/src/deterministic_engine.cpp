@@ -203,6 +203,7 @@ bool DeterministicEngine::StopRequested() {
 }
 
 void DeterministicEngine::RunUntil(Time limit) {
+  const Time end = options_.progress ? ExpectedEnd(graph_, options_) : Time::Max();
   auto last_progress = std::chrono::steady_clock::now();
   std::uint64_t events = 0;
   while (!failed() && !StopRequested()) {
@@ -211,7 +212,7 @@ void DeterministicEngine::RunUntil(Time limit) {
       if (std::chrono::duration<double>(now - last_progress).count() >=
           options_.progress_period_s) {
         last_progress = now;
-        options_.progress(now_);
+        options_.progress(RunProgress{now_, end});
       }
     }
     if (queue_.empty() || queue_.top().stamp > limit) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -129,6 +130,27 @@ bool WriteFileAtomically(const std::string& path, const std::string& text) {
   }
 }
 
+Time ExpectedEnd(const Graph& graph, const RunOptions& options) {
+  std::optional<Time> sources_end;
+  bool all_known = true;
+  for (const auto& n : graph.nodes) {
+    if (!n->is_source) continue;
+    std::optional<Time> end;
+    try {
+      end = n->component->SourceEndTime();
+    } catch (const std::exception&) {
+      end.reset();
+    }
+    if (!end) {
+      all_known = false;
+      continue;
+    }
+    sources_end = sources_end ? std::max(*sources_end, *end) : *end;
+  }
+  if (all_known && sources_end) return std::min(options.until, *sources_end);
+  return options.until;
+}
+
 namespace internal {
 
 std::string InvokeComponent(Node& node, Context& ctx, Reason reason, StatsRecorder& recorder,
@@ -156,8 +178,10 @@ std::string InvokeComponent(Node& node, Context& ctx, Reason reason, StatsRecord
   if (status.code() == Status::Code::kFatal || (!status.ok() && reason == Reason::kStart)) {
     return node.id + ": " + status.message();
   }
-  if (!status.ok() && recorder.RecordError(node.index) && log_errors) {
-    ctx.Log("error: " + status.message());
+  if (!status.ok()) {
+    recorder.RecordError(node.index);
+    // Rate-limited per component by the logger: a flood of errors is counted and summarised.
+    if (log_errors) ctx.Log(log::Level::kError, "error: " + status.message());
   }
   return "";
 }

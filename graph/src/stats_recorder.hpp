@@ -22,11 +22,7 @@ class StatsRecorder {
     if (ms > s.max_ms) s.max_ms = ms;
     if (s.samples.size() < kMaxSamples) s.samples.push_back(static_cast<float>(ms));
   }
-  // Returns true when this error should be logged (rate-limited).
-  bool RecordError(std::uint32_t node) {
-    const std::uint64_t n = ++per_node_[node].errors;
-    return n <= 10 || n % 1000 == 0;
-  }
+  void RecordError(std::uint32_t node) { ++per_node_[node].errors; }
   RunStats Collect(const Graph& graph, const std::string& executor, double wall_s,
                    Time mission_end) const;
 

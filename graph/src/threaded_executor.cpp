@@ -71,7 +71,11 @@ class ThreadedEngine {
       }
       std::thread clock;
       if (rate_ > 0.0) clock = std::thread([this] { ClockLoop(); });
+      std::thread progress;
+      if (options_.progress) progress = std::thread([this] { ProgressLoop(); });
       for (auto& s : sources) s.join();
+      progress_done_ = true;
+      if (progress.joinable()) progress.join();
       WaitIdle();
       sources_done_ = true;
       if (clock.joinable()) clock.join();
@@ -288,6 +292,20 @@ class ThreadedEngine {
     }
   }
 
+  // Tells RunOptions::progress the mission clock about every progress_period_s of wall time
+  // until the sources are done.
+  void ProgressLoop() {
+    const Time end = ExpectedEnd(graph_, options_);
+    auto last = std::chrono::steady_clock::now();
+    while (!progress_done_ && !Stopping()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - last).count() < options_.progress_period_s) continue;
+      last = now;
+      options_.progress(RunProgress{Time{clock_ns_.load()}, end});
+    }
+  }
+
   void SetError(const std::string& message) {
     std::lock_guard<std::mutex> lock(error_mutex_);
     if (error_.empty()) error_ = message;
@@ -334,6 +352,7 @@ class ThreadedEngine {
   std::string error_;
   std::atomic<bool> interrupted_{false};
   std::atomic<bool> sources_done_{false};
+  std::atomic<bool> progress_done_{false};
   std::atomic<std::int64_t> clock_ns_{0};
   std::once_flag pace_once_;
   std::atomic<bool> pace_ready_{false};

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "draco/fleet/link.hpp"
+#include "draco/graph/graph.hpp"
 #include "draco/middleware/transport.hpp"
 
 namespace draco::fleet {
@@ -336,6 +337,44 @@ TEST(LinkEndpoint, AnObjectBeyondTheBoundsIsLeftOutNotTheMap) {
   EXPECT_EQ(in[1].object_maps[0].map.objects.size(), 4u);
   EXPECT_EQ(team.links[0]->counters().objects_left_out, 1u);
   EXPECT_EQ(team.links[0]->counters().encode_errors, 0u);
+}
+
+// fleet.Link's DDS settings are graph parameters, checked when the graph loads: a wrong
+// reliability names the parameter, the component and the accepted values.
+TEST(FleetLinkParams, DdsSettingsAreValidatedWhenTheGraphLoads) {
+  const std::string good = R"(schema: 1
+components:
+  - id: link
+    type: fleet.Link
+    params:
+      transport: dds
+      domain_id: 7
+      dds_topic_prefix: teamA_
+      dds_reliability: best_effort
+      dds_history_depth: 64
+      dds_liveliness_lease_s: 2.5
+)";
+  EXPECT_NO_THROW(graph::LoadGraphString(good, "robot.yaml"));
+  const std::string bad = R"(schema: 1
+components:
+  - id: link
+    type: fleet.Link
+    params: { transport: dds, dds_reliability: fast }
+)";
+  try {
+    graph::LoadGraphString(bad, "robot.yaml");
+    FAIL() << "no error";
+  } catch (const graph::GraphError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("robot.yaml:5:"), std::string::npos) << m;
+    EXPECT_NE(m.find("parameter 'dds_reliability' of 'link': 'fast' is not allowed"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("reliable, best_effort"), std::string::npos) << m;
+  }
+  graph::LoadOptions depth;
+  depth.overrides = {"link.dds_history_depth=0"};
+  EXPECT_THROW(graph::LoadGraphString(good, "robot.yaml", depth), graph::GraphError);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "draco/graph/executor.hpp"
+#include "draco/graph/progress.hpp"
 #include "test_components.hpp"
 
 namespace draco::graph {
@@ -257,7 +258,10 @@ components:
     RunOptions o;
     o.output_dir = d1;
     o.progress_period_s = 0.0;
-    o.progress = [&](Time t) { seen.push_back(t.Seconds()); };
+    o.progress = [&](const RunProgress& p) {
+      seen.push_back(p.mission_time.Seconds());
+      EXPECT_EQ(p.end, Time::Max());  // a ticker does not know its end
+    };
     ASSERT_TRUE(RunDeterministic(*g, o).ok);
   }
   {
@@ -270,6 +274,101 @@ components:
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_LE(seen.back(), 299.9 + 1e-9);
   EXPECT_EQ(ReadFile(d1 + "/values.csv"), ReadFile(d2 + "/values.csv"));
+}
+
+// The expected end comes from the sources (IntSource knows its last stamp) or from `until`,
+// whichever is earlier; one source that does not know its end leaves only `until`.
+TEST(Progress, ExpectedEndFromTheSourcesOrUntil) {
+  const std::string known = R"(schema: 1
+components:
+  - id: s
+    type: test.IntSource
+    params: { count: 5001 }
+)";
+  auto g = LoadGraphString(known, "g.yaml");
+  std::vector<RunProgress> seen;
+  RunOptions o;
+  o.progress_period_s = 0.0;
+  o.progress = [&](const RunProgress& p) { seen.push_back(p); };
+  ASSERT_TRUE(RunDeterministic(*g, o).ok);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(seen.back().end, Time::FromSeconds(50.0));
+  EXPECT_EQ(ExpectedEnd(*g, RunOptions{}), Time::FromSeconds(50.0));
+  RunOptions until;
+  until.until = Time::FromSeconds(20.0);
+  EXPECT_EQ(ExpectedEnd(*g, until), Time::FromSeconds(20.0));
+  until.until = Time::FromSeconds(90.0);
+  EXPECT_EQ(ExpectedEnd(*g, until), Time::FromSeconds(50.0));
+
+  auto mixed = LoadGraphString(known + R"(  - id: t
+    type: example.Ticker
+    params: { count: 3, period_s: 0.1 }
+)",
+                               "g.yaml");
+  EXPECT_EQ(ExpectedEnd(*mixed, RunOptions{}), Time::Max());
+  EXPECT_EQ(ExpectedEnd(*mixed, until), Time::FromSeconds(90.0));
+}
+
+// The threaded executor reports progress too: a paced replay of 2 s of mission at 4x real
+// time, told every 50 ms, sees the mission clock advance towards the sources' end.
+TEST(Progress, ThreadedExecutorReportsMissionTimeAndEnd) {
+  auto g = LoadGraphString(R"(schema: 1
+executor: threaded
+components:
+  - id: s
+    type: test.IntSource
+    params: { count: 201 }
+)",
+                           "g.yaml");
+  std::vector<RunProgress> seen;
+  RunOptions o;
+  o.rate = 4.0;
+  o.use_graph_rate = false;
+  o.progress_period_s = 0.05;
+  o.progress = [&](const RunProgress& p) { seen.push_back(p); };
+  const auto r = RunThreaded(*g, o);
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_GE(seen.size(), 3u);  // about 0.5 s of wall time
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].end, Time::FromSeconds(2.0));
+    if (i > 0) {
+      EXPECT_GE(seen[i].mission_time, seen[i - 1].mission_time);
+    }
+  }
+  EXPECT_GT(seen.back().mission_time, seen.front().mission_time);
+  EXPECT_LE(seen.back().mission_time, Time::FromSeconds(2.0));
+}
+
+// The printer: a line every period of wall time (not every update), with the share of the
+// mission, the rate and the time left; mission time and rate only when the end is unknown.
+TEST(Progress, PrinterWritesAtItsPeriodWithShareRateAndEta) {
+  std::vector<std::string> lines;
+  double wall = 1000.0;
+  ProgressPrinter p("robot alpha",
+                    ProgressOptions{.total_s = 0.0,
+                                    .period_s = 5.0,
+                                    .emit = [&](const std::string& l) { lines.push_back(l); },
+                                    .wall_clock = [&] { return wall; }});
+  // 10x real time for 12 s of wall time, updates every 0.5 s, the executor knows the end.
+  for (int i = 1; i <= 24; ++i) {
+    wall = 1000.0 + 0.5 * i;
+    p.Update(Time::FromSeconds(5.0 * i), Time::FromSeconds(200.0));
+  }
+  ASSERT_EQ(lines.size(), 2u);  // at 5 s and 10 s of wall time
+  EXPECT_EQ(lines[0], "robot alpha: mission 50.0 / 200.0 s (25 %), 10.0x real time, ETA 0m15s");
+  EXPECT_EQ(lines[1], "robot alpha: mission 100.0 / 200.0 s (50 %), 10.0x real time, ETA 0m10s");
+  p.Finish(Time::FromSeconds(120.0));
+  EXPECT_EQ(lines.back(), "robot alpha: done: 120.0 s of mission in 12.0 s, 10.0x real time");
+
+  lines.clear();
+  wall = 0.0;
+  ProgressPrinter unknown("draco: g",
+                          ProgressOptions{.emit = [&](const std::string& l) { lines.push_back(l); },
+                                          .wall_clock = [&] { return wall; }});
+  wall = 6.0;
+  unknown.Update(Time::FromSeconds(30.0));
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0], "draco: g: mission 30.0 s, 5.0x real time");
 }
 
 }  // namespace

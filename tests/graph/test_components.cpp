@@ -14,7 +14,8 @@ Probe& GetProbe() {
 
 namespace {
 
-// Source of ints (a type other than double, for type-mismatch checks).
+// Source of ints (a type other than double, for type-mismatch checks), one every 10 ms of
+// mission time; it knows its end (SourceEndTime).
 class IntSource final : public Component {
  public:
   void Declare(Spec& spec) override {
@@ -25,6 +26,11 @@ class IntSource final : public Component {
   std::optional<Time> NextSourceTime() override {
     if (i_ >= count_) return std::nullopt;
     return Time::FromSeconds(0.01 * i_);
+  }
+  // Known beforehand, as a recording's length is.
+  std::optional<Time> SourceEndTime() const override {
+    if (count_ == 0) return std::nullopt;
+    return Time::FromSeconds(0.01 * (count_ - 1));
   }
   Status Process(Context&) override {
     out_.Publish(i_++);

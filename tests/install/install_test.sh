@@ -2,8 +2,10 @@
 # cmake --install into a temporary prefix, then run from there with the source tree out of
 # the way ($DRACO_DATA_DIR, $CYCLONEDDS_URI and user overrides unset, working folder outside
 # the source tree):
-# 1. only bin/<apps> and share/draco-slam/ are installed: nothing that collides with Debian's
-#    draco package (include/draco, libdraco*, lib/cmake/draco, draco_encoder ...);
+# 1. only bin/<apps>, share/draco-slam/ and the systemd unit lib/systemd/system/draco-robot@.service
+#    are installed: nothing that collides with Debian's draco package (include/draco,
+#    libdraco*, lib/cmake/draco, draco_encoder ...); the unit starts <prefix>/bin/draco-robot
+#    and passes `systemd-analyze verify` (where systemd-analyze is installed);
 # 2. draco-sim simulates a shipped mission (cut to 20 s, 2 robots);
 # 3. draco-local-slam replays it with graphs/local-slam.yaml found in <prefix>/share/draco-slam
 #    (run_info.json names it, with the version --version prints); trajectories parse;
@@ -24,10 +26,28 @@ share=$prefix/share/draco-slam
 
 # 1. What is installed.
 (cd "$prefix" && find . -type f -o -type l | sed 's|^\./||' | sort) >"$work/files"
-unexpected=$(grep -Ev '^(bin/draco(-[a-z-]+)?|share/draco-slam/.+)$' "$work/files")
+unit=lib/systemd/system/draco-robot@.service
+unexpected=$(grep -Ev "^(bin/draco(-[a-z-]+)?|share/draco-slam/.+|$unit)\$" "$work/files")
 [ -z "$unexpected" ] || fail "unexpected files installed: $unexpected"
-grep -E '(^include/|^lib|libdraco|draco_(en|de|trans)coder|cmake/)' "$work/files" &&
+grep -v "^$unit\$" "$work/files" |
+  grep -E '(^include/|^lib|libdraco|draco_(en|de|trans)coder|cmake/)' &&
   fail "installed a file that collides with Debian's draco package"
+[ -f "$prefix/$unit" ] || fail "$unit not installed"
+grep -q "^ExecStart=$prefix/bin/draco-robot --robot %i " "$prefix/$unit" ||
+  fail "$unit does not start $prefix/bin/draco-robot: $(grep ExecStart "$prefix/$unit")"
+grep -q '^StateDirectory=draco-slam/%i$' "$prefix/$unit" || fail "$unit: no StateDirectory"
+grep -q '^EnvironmentFile=/etc/draco-slam/%i.env$' "$prefix/$unit" || fail "$unit: no env file"
+[ -f "$share/systemd/robot.env.example" ] || fail "share/draco-slam/systemd/robot.env.example"
+if command -v systemd-analyze >/dev/null; then
+  mkdir -p "$work/units"
+  cp "$prefix/$unit" "$work/units/draco-robot@alpha.service"
+  verify=$(systemd-analyze verify "$work/units/draco-robot@alpha.service" 2>&1)
+  rc=$?
+  { [ $rc -eq 0 ] && ! echo "$verify" | grep -q draco-robot; } ||
+    fail "systemd-analyze verify (exit $rc): $verify"
+else
+  echo "systemd-analyze not installed: the unit is not verified"
+fi
 for app in draco draco-robot draco-fleet draco-sim draco-eval draco-local-slam draco-worlds \
   draco-team-eval draco-frontend-eval draco-fleet-sizes; do
   [ -x "$prefix/bin/$app" ] || fail "bin/$app not installed"
@@ -69,6 +89,11 @@ for robot in ("alpha", "bravo"):
         [float(x) for x in r]
     json.load(open(os.path.join(out, robot + ".runtime_stats.json")))
 PY
+
+# 3b. draco-robot takes its settings from DRACO_* variables too (the systemd environment file).
+out=$(DRACO_MISSION=m DRACO_ROBOT=zulu DRACO_LOG_LEVEL=warn "$bin/draco-robot" 2>&1) &&
+  fail "draco-robot accepted robot zulu"
+echo "$out" | grep -q "has no robot 'zulu'" || fail "DRACO_MISSION/DRACO_ROBOT not read: $out"
 
 # 4. The default graph from the share folder.
 "$bin/draco" run --rate 0 --until 2 --out d >d.log 2>&1 || { cat d.log; fail "draco run"; }

@@ -9,10 +9,12 @@
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -261,11 +263,141 @@ TEST(DdsTransport, TwoProcessesDiscoverEachOtherOnLoopback) {
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 }
 
-// Robot 2 of TwoProcessesDiscoverEachOtherOnLoopback (skipped unless started by it).
+// Teams on one domain with different topic prefixes: each robot hears its teammates (so
+// discovery works for both teams) and never a robot of the other team.
+TEST(DdsTransport, TopicPrefixSeparatesTeamsOnOneDomain) {
+  const int domain = TestDomain(7);
+  auto with_prefix = [&](std::uint16_t robot, const std::string& prefix) {
+    DdsOptions o = Options(domain, robot);
+    o.topic_prefix = prefix;
+    return MakeDdsTransport(o);
+  };
+  auto a1 = with_prefix(1, "teamA_");
+  auto a2 = with_prefix(2, "teamA_");
+  auto b3 = with_prefix(3, "teamB_");
+  auto b4 = with_prefix(4, "teamB_");
+  std::vector<Frame> at_a2, at_b3, at_b4;
+  std::uint32_t seq = 0;
+  auto exchange = [&] {
+    EXPECT_TRUE(a1->Send(MakeFrame(kBroadcast, 4, seq)));
+    EXPECT_TRUE(b3->Send(MakeFrame(kBroadcast, 5, seq)));
+    ++seq;
+    for (Frame& f : a2->Receive()) at_a2.push_back(std::move(f));
+    for (Frame& f : b3->Receive()) at_b3.push_back(std::move(f));
+    for (Frame& f : b4->Receive()) at_b4.push_back(std::move(f));
+    a1->Receive();
+  };
+  ASSERT_TRUE(PollFor(5.0, [&] {
+    exchange();
+    return !at_a2.empty() && !at_b4.empty();
+  })) << "a team did not hear itself";
+  PollFor(0.5, [&] {  // more frames, time for any cross-team sample to arrive
+    exchange();
+    return false;
+  });
+  for (const Frame& f : at_a2)
+    EXPECT_EQ(f.source, 1) << "robot 2 (team A) heard robot " << f.source;
+  for (const Frame& f : at_b4)
+    EXPECT_EQ(f.source, 3) << "robot 4 (team B) heard robot " << f.source;
+  EXPECT_TRUE(at_b3.empty()) << "robot 3 (team B) heard team A";
+  EXPECT_GT(at_a2.size(), 10u);
+  EXPECT_GT(at_b4.size(), 10u);
+}
+
+// Bad settings are refused before DDS starts, naming the setting and what it expects.
+TEST(DdsTransport, BadOptionsAreClearErrors) {
+  EXPECT_EQ(ParseDdsReliability("reliable"), DdsReliability::kReliable);
+  EXPECT_EQ(ParseDdsReliability("best_effort"), DdsReliability::kBestEffort);
+  auto message = [](const std::function<void()>& f) -> std::string {
+    try {
+      f();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "no std::invalid_argument";
+  };
+  EXPECT_EQ(message([] { ParseDdsReliability("fast"); }),
+            "dds reliability 'fast': expected reliable or best_effort");
+  DdsOptions o = Options(TestDomain(2), 1);
+  o.topic_prefix = "team A";
+  EXPECT_EQ(message([&] { MakeDdsTransport(o); }),
+            "dds topic_prefix 'team A': expected letters, digits and '_' only");
+  o = Options(TestDomain(2), 1);
+  o.history_depth = 0;
+  EXPECT_EQ(message([&] { MakeDdsTransport(o); }), "dds history_depth 0: expected 1 to 100000");
+  o = Options(TestDomain(2), 1);
+  o.liveliness_lease_s = -1.0;
+  EXPECT_NE(message([&] { MakeDdsTransport(o); }).find("dds liveliness_lease_s"),
+            std::string::npos);
+  o = Options(300, 1);
+  EXPECT_EQ(message([&] { MakeDdsTransport(o); }), "dds domain_id 300: expected 0 to 232");
+}
+
+// Best effort carries frames too (same QoS on both sides), with a shallow history.
+TEST(DdsTransport, BestEffortWithShallowHistoryCarriesFrames) {
+  DdsOptions o = Options(TestDomain(9), 1);
+  o.reliability = DdsReliability::kBestEffort;
+  o.history_depth = 4;
+  auto a = MakeDdsTransport(o);
+  o.robot_id = 2;
+  auto b = MakeDdsTransport(o);
+  std::uint32_t seq = 0;
+  EXPECT_TRUE(PollFor(5.0, [&] {
+    EXPECT_TRUE(a->Send(MakeFrame(2, 4, seq++)));
+    return !b->Receive().empty();
+  }));
+}
+
+// A teammate whose process dies is noticed through its liveliness lease: this test starts a
+// peer process with a 0.5 s lease, hears it, kills it with SIGKILL (no goodbye), and the
+// transport counts the lost writer within a few seconds.
+TEST(DdsTransport, LivelinessLeaseNoticesAKilledTeammate) {
+  const int domain = TestDomain(8);
+  auto a = MakeDdsTransport(Options(domain, 1));
+  std::vector<std::string> env_strings;
+  for (char** e = environ; *e; ++e) env_strings.emplace_back(*e);
+  env_strings.push_back("DRACO_MW_PEER_DOMAIN=" + std::to_string(domain));
+  env_strings.push_back("DRACO_MW_PEER_LEASE_S=0.5");
+  std::vector<char*> envp;
+  for (std::string& s : env_strings) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  std::string exe = "/proc/self/exe";
+  std::string filter = "--gtest_filter=DdsPeer.Echo";
+  char* argv[] = {exe.data(), filter.data(), nullptr};
+  pid_t child = 0;
+  ASSERT_EQ(posix_spawn(&child, exe.c_str(), nullptr, nullptr, argv, envp.data()), 0);
+  std::uint32_t hello = 0;
+  const bool answered = PollFor(8.0, [&] {
+    if (hello++ % 5 == 0) a->Send(MakeFrame(kBroadcast, 1, hello));
+    for (const Frame& f : a->Receive()) {
+      if (f.source == 2 && f.kind == 2) return true;
+    }
+    return false;
+  });
+  EXPECT_TRUE(answered) << "no answer from the peer process";
+  EXPECT_EQ(a->counters().peers_lost, 0u);
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  const auto killed = Clock::now();
+  EXPECT_TRUE(PollFor(5.0, [&] {
+    a->Receive();
+    return a->counters().peers_lost >= 1;
+  })) << "the killed peer's writer was never reported lost";
+  std::cout << "[ info ] killed peer noticed after "
+            << std::chrono::duration<double>(Clock::now() - killed).count() << " s (lease 0.5 s)\n";
+}
+
+// Robot 2 of TwoProcessesDiscoverEachOtherOnLoopback and LivelinessLeaseNoticesAKilledTeammate
+// (skipped unless started by one of them).
 TEST(DdsPeer, Echo) {
   const char* domain = std::getenv("DRACO_MW_PEER_DOMAIN");
   if (domain == nullptr) GTEST_SKIP() << "started by TwoProcessesDiscoverEachOtherOnLoopback";
-  auto b = MakeDdsTransport(Options(std::atoi(domain), 2));
+  DdsOptions options = Options(std::atoi(domain), 2);
+  if (const char* lease = std::getenv("DRACO_MW_PEER_LEASE_S")) {
+    options.liveliness_lease_s = std::atof(lease);
+  }
+  auto b = MakeDdsTransport(options);
   bool stop = false;
   PollFor(15.0, [&] {
     for (const Frame& f : b->Receive()) {

@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "draco/log/log.hpp"
+
 namespace draco::fleet {
 namespace {
 
@@ -239,11 +241,17 @@ void LinkEndpoint::SendClock(double now_s, bool bye) {
   transport_->Send(f);
 }
 
+std::string LinkEndpoint::Who() const {
+  return "fleet link: robot " + std::to_string(options_.robot_id) + ": ";
+}
+
 void LinkEndpoint::ReceiveAll(double now_s) {
   for (auto& f : transport_->Receive()) {
     TeammateLinkState* t = Teammate(f.source);
     if (t == nullptr) {
       ++counters_.unknown_robot;
+      log::Warn(Who() + "ignored a frame from robot " + std::to_string(f.source) +
+                " (not in the team)");
       continue;
     }
     if (f.destination != middleware::kBroadcast && f.destination != options_.robot_id) {
@@ -300,6 +308,9 @@ bool LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnati
       {t->robot_id, incarnation,
        restarted ? msgs::TeammateEventKind::kRestarted : msgs::TeammateEventKind::kJoined});
   if (restarted) ++t->restarts;
+  log::Info(Who() + "teammate " + std::to_string(t->robot_id) +
+            (restarted ? " restarted" : " joined") + " (incarnation " +
+            std::to_string(incarnation) + ")");
   t->incarnation = incarnation;
   t->known = true;
   t->left = false;
@@ -368,6 +379,9 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
   const auto kind = static_cast<FleetKind>(f.kind);
   const std::size_t bits = middleware::LinkBits(f);
   auto reject = [&]() {
+    log::Warn(Who() + "rejected a " + std::string(msgs::FleetKindName(kind)) +
+              " frame from robot " + std::to_string(f.source) +
+              " (does not decode, breaks a bound or names another sender)");
     ++counters_.rejected;
     ++t->frames_rejected;
     channel_.CountRejected(f.kind);
@@ -498,10 +512,13 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
         now_s - t.last_heard_s > options_.silence_s) {
       t.silent = true;
       pending_events_.push_back({id, t.incarnation, msgs::TeammateEventKind::kSilent});
+      log::Warn(Who() + "teammate " + std::to_string(id) + " silent for " +
+                std::to_string(now_s - t.last_heard_s) + " s of mission time");
     }
     if (t.left && !t.left_reported) {
       t.left_reported = true;
       pending_events_.push_back({id, t.incarnation, msgs::TeammateEventKind::kLeft});
+      log::Info(Who() + "teammate " + std::to_string(id) + " left");
     }
   }
   in.events = std::move(pending_events_);
@@ -565,6 +582,7 @@ std::string LinkEndpoint::StatsJson() const {
                       {"transport_frames_received", tc.frames_received},
                       {"transport_frames_malformed", tc.frames_malformed},
                       {"transport_frames_own", tc.frames_own},
+                      {"transport_peers_lost", tc.peers_lost},
                       {"transport_send_failed", tc.send_failed}}},
                     {"teammates", teammates}};
   return out.dump(2) + "\n";

@@ -62,6 +62,19 @@ class LinkComponent final : public graph::Component {
                {.doc = "DDS domain (transport dds)", .min = 0, .max = 230});
     spec.Param("dds_config", &dds_config_,
                {.doc = "Cyclone DDS XML configuration file; empty: $CYCLONEDDS_URI or defaults"});
+    spec.Param("dds_topic_prefix", &dds_.topic_prefix,
+               {.doc = "prepended to the DDS topic 'draco_link' (letters, digits, '_'): teams "
+                       "with different prefixes share a domain without hearing each other"});
+    spec.Param("dds_reliability", &dds_reliability_,
+               {.doc = "DDS reliability of the link topic (the same for the whole team)",
+                .choices = {"reliable", "best_effort"}});
+    spec.Param("dds_history_depth", &dds_.history_depth,
+               {.doc = "DDS keep-last history per robot, frames", .min = 1, .max = 100000});
+    spec.Param("dds_liveliness_lease_s", &dds_.liveliness_lease_s,
+               {.doc = "DDS liveliness lease of the robot's writer: a teammate whose process or "
+                       "network is gone is noticed after it (logged; 0: no lease)",
+                .unit = "s",
+                .min = 0.0});
     spec.Param("lockstep", &o_.lockstep,
                {.doc = "replay in step with the teammates' mission clocks (DDS replays)"});
     spec.Param("lockstep_timeout_s", &o_.lockstep_timeout_s,
@@ -97,10 +110,11 @@ class LinkComponent final : public graph::Component {
     try {
       std::unique_ptr<middleware::Transport> transport;
       if (transport_ == "dds") {
-        middleware::DdsOptions d;
+        middleware::DdsOptions d = dds_;
         d.domain_id = domain_id_;
         d.robot_id = static_cast<std::uint16_t>(o_.robot_id);
         d.config_file = dds_config_;
+        d.reliability = middleware::ParseDdsReliability(dds_reliability_);
         transport = middleware::MakeDdsTransport(d);
       } else {
         transport =
@@ -137,6 +151,13 @@ class LinkComponent final : public graph::Component {
     merged.time_s = now_s;
     last_s_ = now_s;
     auto in = link_->Tick(now_s, any ? &merged : nullptr, [&ctx] { return ctx.StopRequested(); });
+    if (const auto lost = link_->transport_counters().peers_lost; lost > peers_lost_) {
+      ctx.Log(log::Level::kWarn,
+              "DDS: " + std::to_string(lost - peers_lost_) +
+                  " teammate writer(s) no longer alive (left, or silent beyond their liveliness "
+                  "lease); the link reports the teammate silent after silence_s");
+      peers_lost_ = lost;
+    }
     // One message per item, kinds in this order (the team stages absorb them in it).
     for (auto& e : in.events) events_.PublishAt(ctx.Now(), e);
     for (auto& m : in.object_maps) maps_out_.PublishAt(ctx.Now(), std::move(m));
@@ -173,6 +194,9 @@ class LinkComponent final : public graph::Component {
   std::string bus_ = "team";
   int domain_id_ = 0;
   std::string dds_config_;
+  middleware::DdsOptions dds_;  // topic prefix, history depth, liveliness lease
+  std::string dds_reliability_ = "reliable";
+  std::uint64_t peers_lost_ = 0;
   std::string prefix_;
   double last_s_ = 0.0;
   std::unique_ptr<LinkEndpoint> link_;

@@ -1,4 +1,5 @@
 #include "draco/frontend/pipeline.hpp"
+#include "draco/log/log.hpp"
 
 #include <algorithm>
 #include <array>
@@ -89,7 +90,7 @@ std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const st
   std::optional<graph::ProgressPrinter> printer;
   if (progress) {
     printer.emplace("local SLAM " + name, recording::RobotReplayLengthS(mission, name));
-    run.progress = [&](graph::Time t) { printer->Update(t); };
+    run.progress = printer->Callback();
   }
   const auto result = graph::RunDeterministic(*g, run);
   if (printer) printer->Finish(graph::Time::FromSeconds(result.stats.mission_s));
@@ -204,7 +205,7 @@ std::vector<Robot> RunRobots(const std::string& mission, const recording::Missio
       try {
         const auto s = std::chrono::steady_clock::now();
         if (!(options.reuse && LoadKeyframes(cache, &r.kfs))) {
-          std::fprintf(stderr, "local SLAM of %s ...\n", r.name.c_str());
+          log::Info("local SLAM of " + r.name + " ...");
           r.kfs = RunLocalSlam(mission, r.name, static_cast<int>(i), options.graph_path,
                                out_dir + "/slam", options.overrides, options.jobs <= 1);
           SaveKeyframes(cache, r.kfs);

@@ -41,6 +41,7 @@ class RecordingReaderComponent final : public graph::Component {
         robot = info.robots[0].name;
       }
       reader_.emplace(RobotReader::Open(recording_, robot));
+      end_s_ = RobotReplayLengthS(recording_, robot);
       next_ = reader_->Next();
       ctx.Log("replaying robot '" + robot + "' of mission '" + reader_->Mission().name + "' from " +
               recording_);
@@ -53,6 +54,12 @@ class RecordingReaderComponent final : public graph::Component {
   std::optional<Time> NextSourceTime() override {
     if (!next_) return std::nullopt;
     return Time::FromSeconds(RecordTime(*next_));
+  }
+
+  // The recording's last AHRS stamp (the mission's length; docs/recording-format.md).
+  std::optional<Time> SourceEndTime() const override {
+    if (!(end_s_ > 0.0)) return std::nullopt;
+    return Time::FromSeconds(end_s_);
   }
 
   Status Process(Context& ctx) override {
@@ -77,6 +84,7 @@ class RecordingReaderComponent final : public graph::Component {
   std::optional<RobotReader> reader_;
   std::optional<Record> next_;
   std::uint64_t published_ = 0;
+  double end_s_ = 0.0;  // 0: unknown
   sensor_outputs::SensorOutputs outputs_;
 };
 DRACO_REGISTER_COMPONENT(RecordingReaderComponent, "sonar.RecordingReader")

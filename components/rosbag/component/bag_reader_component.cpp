@@ -77,6 +77,14 @@ class BagReaderComponent final : public graph::Component {
     return Stamp(*next_);
   }
 
+  // Mission time is relative to the bag's start; its end is in the bag's index.
+  std::optional<Time> SourceEndTime() const override {
+    if (!reader_) return std::nullopt;
+    const double end_s = reader_->end_time_s() - reader_->start_time_s();
+    if (!(end_s > 0.0)) return std::nullopt;
+    return Time::FromSeconds(end_s);
+  }
+
   Status Process(Context& ctx) override {
     if (!next_) return Status::Ok();
     const Time stamp = Stamp(*next_);
@@ -103,7 +111,7 @@ class BagReaderComponent final : public graph::Component {
       } catch (const BagError& e) {
         if (!skip_bad_messages_ || !e.bad_message()) return Status::Fatal(e.what());
         ++skipped_;
-        ctx.Log(std::string("skipped: ") + e.what());
+        ctx.Log(log::Level::kWarn, std::string("skipped: ") + e.what());
       }
     }
   }

@@ -10,12 +10,14 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <source_location>
 #include <string>
 #include <typeindex>
 #include <vector>
 
 #include "draco/graph/port.hpp"
 #include "draco/graph/time.hpp"
+#include "draco/log/log.hpp"
 
 namespace draco::graph {
 
@@ -124,7 +126,15 @@ class Context {
   bool StopRequested() const { return stop_ != nullptr && stop_->load(); }
   void SetStopFlag(const std::atomic<bool>* stop) { stop_ = stop; }
 
-  void Log(const std::string& message) const;
+  // Logs "[<mission time> s] <id>: message" at `level` (draco/log/log.hpp); rate-limited
+  // per source line and component.
+  void Log(log::Level level, const std::string& message,
+           std::source_location where = std::source_location::current()) const;
+  // At info level.
+  void Log(const std::string& message,
+           std::source_location where = std::source_location::current()) const {
+    Log(log::Level::kInfo, message, where);
+  }
 
   // Set by the executor.
   void SetEvent(Reason reason, std::string timer) {
@@ -152,6 +162,9 @@ class Component {
   virtual Status Process(Context& ctx) = 0;
   // Sources only: mission time of the next emission; nullopt when exhausted.
   virtual std::optional<Time> NextSourceTime() { return std::nullopt; }
+  // Sources only, after Start(): the stamp of the last emission when known beforehand (a
+  // recording's length), for progress and ETA displays; nullopt when unknown.
+  virtual std::optional<Time> SourceEndTime() const { return std::nullopt; }
   // The run ends: flush outputs (messages published here are still delivered).
   virtual Status Stop(Context& /*ctx*/) { return Status::Ok(); }
 };

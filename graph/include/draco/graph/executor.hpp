@@ -45,6 +45,12 @@ struct RunStats {
   std::string ToJson() const;
 };
 
+// What RunOptions::progress is told.
+struct RunProgress {
+  Time mission_time;       // reached
+  Time end = Time::Max();  // the run's expected end; Time::Max() when unknown (ExpectedEnd)
+};
+
 struct RunOptions {
   double rate = 0.0;  // 0: as fast as possible; N: N x real time (overrides the graph's)
   bool use_graph_rate = true;
@@ -53,11 +59,17 @@ struct RunOptions {
   Time until = Time::Max();                           // stop after this mission time
   const std::atomic<bool>* stop_requested = nullptr;  // e.g. set by a SIGINT handler
   bool log_errors = true;
-  // Called by the deterministic executor about every progress_period_s of wall time with the
-  // mission time reached (for progress displays; it cannot change the run).
-  std::function<void(Time)> progress;
+  // Called by either executor (from one thread) about every progress_period_s of wall time
+  // with the mission time reached and the expected end (for progress displays, e.g.
+  // ProgressPrinter; it cannot change the run).
+  std::function<void(const RunProgress&)> progress;
   double progress_period_s = 0.5;
 };
+
+// The run's expected end: `until` when the sources' recordings end later or do not say;
+// else the latest end the sources know (Component::SourceEndTime(), asked after Start());
+// Time::Max() when neither is known.
+Time ExpectedEnd(const Graph& graph, const RunOptions& options);
 
 struct RunResult {
   bool ok = true;

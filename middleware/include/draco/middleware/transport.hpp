@@ -19,6 +19,9 @@ struct TransportCounters {
   std::uint64_t frames_malformed = 0;  // dropped by the transport (bad size, bad envelope)
   std::uint64_t frames_own = 0;        // own frames echoed back, ignored
   std::uint64_t send_failed = 0;       // Send returned false (refused frame, DDS write error)
+  // DDS: teammates' writers that stopped being alive (their participant left, crashed or was
+  // cut off beyond its liveliness lease); 0 for the in-process bus.
+  std::uint64_t peers_lost = 0;
 };
 
 class Transport {
@@ -38,17 +41,43 @@ class Transport {
 // in every other endpoint's inbox before Send returns, in send order.
 std::unique_ptr<Transport> MakeInProcessTransport(const std::string& bus, std::uint16_t robot_id);
 
+enum class DdsReliability { kReliable, kBestEffort };
+
+// "reliable" or "best_effort"; throws std::invalid_argument naming the value and the choices.
+DdsReliability ParseDdsReliability(const std::string& text);
+const char* DdsReliabilityName(DdsReliability reliability);
+
+// The DDS settings of a robot's link. Every robot of a team must use the same domain, topic
+// prefix and reliability (a reliable reader does not match a best-effort writer).
 struct DdsOptions {
-  int domain_id = 0;
+  int domain_id = 0;  // 0 to 232; another domain is another team
   std::uint16_t robot_id = 0;
   // Cyclone DDS configuration (XML file); "" uses $CYCLONEDDS_URI or Cyclone's defaults.
   std::string config_file;
-  std::string topic = "draco_link";
+  // Prepended to the topic name "draco_link" (letters, digits and '_'; may be empty): teams
+  // with different prefixes share a domain and a network without hearing each other.
+  std::string topic_prefix;
+  DdsReliability reliability = DdsReliability::kReliable;
+  // Keep-last history per writer (one per robot) on both sides; deep enough that a reader
+  // busy for a long optimisation step loses nothing of a teammate that keeps ticking.
+  int history_depth = 1024;  // 1 to 100000
+  // > 0: every writer offers automatic liveliness with this lease, so a teammate whose
+  // process died or whose network went away is noticed (TransportCounters::peers_lost) about
+  // this long after it stopped; 0: no lease (a writer that leaves cleanly is still noticed).
+  double liveliness_lease_s = 0.0;
 };
 
-// Cyclone DDS (C API) transport: one participant, one reliable keep-last topic of link
-// frames (middleware/idl/link.idl). Throws std::runtime_error when DDS cannot start
-// (message names the domain and the config file).
+// The topic name: topic_prefix + "draco_link".
+std::string DdsTopicName(const DdsOptions& options);
+
+// Checks every field; throws std::invalid_argument naming the field, the value and what was
+// expected.
+void ValidateDdsOptions(const DdsOptions& options);
+
+// Cyclone DDS (C API) transport: one participant, one keep-last topic of link frames
+// (middleware/idl/link.idl) with the QoS of `options`. Throws std::invalid_argument for a bad
+// option (ValidateDdsOptions) and std::runtime_error when DDS cannot start (the message
+// names the domain and the config file).
 std::unique_ptr<Transport> MakeDdsTransport(const DdsOptions& options);
 
 }  // namespace draco::middleware

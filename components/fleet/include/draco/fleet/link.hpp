@@ -118,6 +118,7 @@ class LinkEndpoint {
   void QueueOutgoing(const msgs::FleetOutgoing& out, double now_s);
   void SendClock(double now_s, bool bye);
   void ReceiveAll(double now_s);
+  std::string Who() const;  // "fleet link: robot 2: ", the start of its log lines
   void WaitForTeammates(double now_s, const std::function<bool()>& cancelled);
   bool InStep(const TeammateLinkState& t, double now_s) const;
   // False: a replaced incarnation (the frame is stale and dropped).
