@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
   draco::fleet_app::RobotSetup setup;
   std::string robot;
   std::string graph_path;
-  std::string dds_config;  // --dds-config as given
+  std::string dds_config;       // --dds-config as given
+  std::string ros2_dds_config;  // --ros2-dds-config as given
   std::string team_list;
   std::string out_dir;
   std::vector<std::string> overrides;
@@ -79,6 +80,15 @@ int main(int argc, char** argv) {
                  "Cyclone DDS XML file, or a shipped profile: loopback, lan, unicast (default: "
                  "$CYCLONEDDS_URI when set, else loopback)")
       ->envname("DRACO_DDS_CONFIG");
+  app.add_option("--ros2-domain", setup.ros2_domain_id,
+                 "publish the team estimate and map as ROS 2 topics /draco/<robot>/... on this "
+                 "DDS domain of the local network (ROS_DOMAIN_ID; not the link's domain)")
+      ->check(CLI::Range(0, 232))
+      ->envname("DRACO_ROS2_DOMAIN");
+  app.add_option("--ros2-dds-config", ros2_dds_config,
+                 "Cyclone DDS XML file or shipped profile for --ros2-domain (default: "
+                 "$CYCLONEDDS_URI when set, else Cyclone's defaults: multicast on one LAN)")
+      ->envname("DRACO_ROS2_DDS_CONFIG");
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
@@ -124,6 +134,19 @@ int main(int argc, char** argv) {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
       setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI
       draco::log::Info("draco-robot: " + robot + ": " + dds.Describe());
+    }
+    if (setup.ros2_domain_id >= 0) {
+      if (setup.transport == "dds" && setup.domain_id == setup.ros2_domain_id) {
+        draco::log::Error("draco-robot: --ros2-domain " + std::to_string(setup.ros2_domain_id) +
+                          " is the team link's domain; ROS 2 monitoring needs a domain of its "
+                          "own (the link's traffic must not meet it)");
+        return 1;
+      }
+      if (!ros2_dds_config.empty()) {
+        setup.ros2_dds_config = draco::app::ChooseDdsConfig(ros2_dds_config, "").file;
+      }
+      draco::log::Info("draco-robot: " + robot + ": ROS 2 topics /draco/" + robot +
+                       "/... on domain " + std::to_string(setup.ros2_domain_id));
     }
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-robot", argc, argv);

@@ -70,6 +70,8 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
       p + "filter.prefix=" + name + ".",
       p + "optimizer.prefix=" + name + ".",
       p + "optimizer.team_names=" + List(s.team),
+      p + "monitor.robot=" + name,
+      p + "monitor.team_names=" + List(s.team),
       p + "link.robot_id=" + std::to_string(s.robot_id),
       p + "link.team=" + List(ids),
       p + "link.prefix=" + name + ".",
@@ -80,6 +82,11 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
   o.insert(o.end(), common.begin(), common.end());
   if (s.domain_id >= 0) o.push_back(p + "link.domain_id=" + std::to_string(s.domain_id));
   if (!s.dds_config.empty()) o.push_back(p + "link.dds_config=" + s.dds_config);
+  if (s.ros2_domain_id >= 0) {
+    o.push_back(p + "monitor.enabled=true");
+    o.push_back(p + "monitor.domain_id=" + std::to_string(s.ros2_domain_id));
+    if (!s.ros2_dds_config.empty()) o.push_back(p + "monitor.dds_config=" + s.ros2_dds_config);
+  }
   if (Airplane(s.world)) {
     // As draco-team-eval: nearer candidates on the airplane (docs/front-end.md).
     o.push_back(p + "exchange.candidate_radius_m=20");

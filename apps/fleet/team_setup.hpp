@@ -19,6 +19,8 @@ struct RobotSetup {
   std::string bus = "team";
   int domain_id = -1;  // DDS domain; < 0: the graph's (link.domain_id)
   std::string dds_config;
+  int ros2_domain_id = -1;  // >= 0: fleet.Ros2Monitor on, on this domain (never the link's)
+  std::string ros2_dds_config;
   bool lockstep = true;
 };
 

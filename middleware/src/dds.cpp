@@ -9,15 +9,14 @@
 #include <atomic>
 #include <cctype>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <mutex>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "dds_domains.hpp"
 #include "draco/middleware/transport.hpp"
 #include "link.h"
 
@@ -39,64 +38,6 @@ std::string Where(const DdsOptions& options) {
                            Where(options) + ")");
 }
 
-std::string ReadConfig(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  if (in) text << in.rdbuf();
-  if (!in || text.str().empty()) {
-    throw std::runtime_error("dds: cannot read the Cyclone DDS configuration file '" + path + "'");
-  }
-  return text.str();
-}
-
-// Domains created with an explicit configuration, shared by the transports of this process
-// (Cyclone allows one dds_create_domain per domain id and process).
-class Domains {
- public:
-  static Domains& Get() {
-    static Domains domains;
-    return domains;
-  }
-
-  void Acquire(const DdsOptions& options) {
-    std::string config = options.config_file.empty() ? "" : ReadConfig(options.config_file);
-    std::lock_guard lock(mutex_);
-    auto it = open_.find(options.domain_id);
-    if (it != open_.end()) {
-      if (it->second.config != config) {
-        throw std::runtime_error("dds: domain " + std::to_string(options.domain_id) +
-                                 " is already open in this process with another configuration (" +
-                                 Where(options) + ")");
-      }
-      ++it->second.users;
-      return;
-    }
-    dds_entity_t domain = 0;
-    if (!config.empty()) {
-      domain = dds_create_domain(static_cast<dds_domainid_t>(options.domain_id), config.c_str());
-      if (domain < 0) Fail("dds_create_domain", domain, options);
-    }
-    open_.emplace(options.domain_id, Open{domain, std::move(config), 1});
-  }
-
-  void Release(int domain_id) {
-    std::lock_guard lock(mutex_);
-    auto it = open_.find(domain_id);
-    if (it == open_.end() || --it->second.users > 0) return;
-    if (it->second.domain > 0) dds_delete(it->second.domain);
-    open_.erase(it);
-  }
-
- private:
-  struct Open {
-    dds_entity_t domain;  // 0: created implicitly by the participant (default config)
-    std::string config;
-    int users;
-  };
-  std::mutex mutex_;
-  std::map<int, Open> open_;
-};
-
 struct QosDeleter {
   void operator()(dds_qos_t* qos) const { dds_delete_qos(qos); }
 };
@@ -108,7 +49,8 @@ class DdsTransport final : public Transport {
  public:
   explicit DdsTransport(const DdsOptions& options) : options_(options) {
     ValidateDdsOptions(options);
-    Domains::Get().Acquire(options_);
+    Domains::Get().Acquire(options_.domain_id, options_.config_file, DomainUse::kTeamLink,
+                           Where(options_));
     try {
       Start();
     } catch (...) {

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include "draco/graph/testing/harness.hpp"
 #include "draco/icp/sequential.hpp"
 #include "draco/msgs/map.hpp"
+#include "draco/pose_graph/g2o.hpp"
 
 namespace draco::slam {
 namespace {
@@ -251,6 +253,16 @@ TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
     EXPECT_NEAR(k.T_map_kf.y_m, k.T_odom_kf.y_m, 1e-2);
     EXPECT_NEAR(std::remainder(k.T_map_kf.yaw_rad - k.T_odom_kf.yaw_rad, 2 * M_PI), 0.0, 1e-3);
   }
+  // pose_graph.g2o: the keyframes only; the bias nodes (ids < 0) and their factors are left
+  // out with a note, since g2o's SE2 types do not model them.
+  std::istringstream text(slam.ToG2oText());
+  const auto g2o = pose_graph::ParseG2o(text, "pose_graph.g2o");
+  ASSERT_EQ(g2o.vertices.size(), mission.keyframes.size());
+  for (const auto& v : g2o.vertices) EXPECT_GE(v.id, 0);
+  for (const auto& e : g2o.edges) EXPECT_TRUE(e.i >= 0 && e.j >= 0);
+  EXPECT_NE(slam.ToG2oText().find("# left out: " + std::to_string(mission.keyframes.size() + 1) +
+                                  " auxiliary nodes"),
+            std::string::npos);
 }
 
 TEST(LandmarkObservations, KeepsCompactIsolatedClustersOnly) {
@@ -400,6 +412,17 @@ TEST(LocalSlam, LandmarksSeenFromAdjacentLanesRemoveDrift) {
     EXPECT_GT(l.last_keyframe - l.first_keyframe, 20) << "landmark " << l.id;
   }
   EXPECT_GE(in_graph, 8);
+  // pose_graph.g2o carries the landmarks as g2o's VERTEX_XY / EDGE_SE2_XY, ids after the
+  // keyframes', and reads back into a graph with the same points and observations.
+  std::istringstream text(b.ToG2oText());
+  const auto g2o = pose_graph::ParseG2o(text, "pose_graph.g2o");
+  EXPECT_EQ(static_cast<int>(g2o.points.size()), in_graph);
+  for (const auto& p : g2o.points)
+    EXPECT_GE(p.id, static_cast<pose_graph::PointId>(keyframes.size()));
+  const auto back = pose_graph::ToPoseGraph(g2o);
+  EXPECT_EQ(back.NumPoints(), g2o.points.size());
+  EXPECT_EQ(back.PointObservations().size(), g2o.point_edges.size());
+  EXPECT_GT(g2o.point_edges.size(), 2 * g2o.points.size());
 }
 
 TEST(LocalSlam, ViewpointStabilityRejectsABodyFixedArtefact) {

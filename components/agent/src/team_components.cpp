@@ -550,6 +550,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
         "teammate_object_maps", FromLink("teammates' object maps (link; map-level check)"));
     transforms_out_ = spec.Output<msgs::MapTransforms>(
         "map_transforms", "own verified map-to-map estimates to share, when they change");
+    estimate_out_ = spec.Output<msgs::TeamTrajectories>(
+        "team_estimate", "every placed robot's keyframes in the own map frame, when optimised");
     RobotIdParam(spec, &o_.robot_id);
     spec.Param("team_names", &team_names_,
                {.doc = "robot names by id (output file names): alpha, bravo, ..."});
@@ -635,6 +637,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
       steps_.push_back(st);
       LogPlacements();
       LogMapChecks();
+      if (st.optimized) {
+        const auto& est = stage_->estimate();
+        estimate_out_.PublishAt(l.stamp,
+                                msgs::TeamTrajectories{est.time_s, o_.robot_id, est.trajectories});
+      }
       auto shared = stage_->SharedTransforms();
       if (shared != shared_) {
         shared_ = shared;
@@ -763,6 +770,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
   graph::In<msgs::OwnObjectMap> objects_;
   graph::In<msgs::TeammateObjectMap> maps_;
   graph::Out<msgs::MapTransforms> transforms_out_;
+  graph::Out<msgs::TeamTrajectories> estimate_out_;
   std::vector<msgs::Heartbeat::Transform> shared_;  // last published
   graph::In<msgs::KeyframePoses> poses_;
   graph::In<msgs::TeammateEvent> events_;

@@ -1,12 +1,15 @@
 #include "draco/pose_graph/g2o.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 namespace draco::pose_graph {
 
@@ -67,6 +70,10 @@ class LineParser {
                  yt = Number(k + 4), tt = Number(k + 5);
     return {xx, xy, xt, xy, yy, yt, xt, yt, tt};
   }
+  Matrix2 UpperInformation2(std::size_t k) const {
+    const double xx = Number(k), xy = Number(k + 1), yy = Number(k + 2);
+    return {xx, xy, xy, yy};
+  }
   [[noreturn]] void Fail(const std::string& problem) const {
     throw G2oParseError(source_, line_, problem, text_);
   }
@@ -108,11 +115,19 @@ G2oGraph ParseG2o(std::istream& in, const std::string& source_name) {
     } else if (tag == "EDGE_PRIOR_SE2" || tag == "EDGE_SE2_PRIOR") {  // g2o's name; draco's old
       p.ExpectCount(11);
       graph.priors.push_back({p.Id(1), p.Pose(2), p.UpperInformation(5)});
+    } else if (tag == "VERTEX_XY") {
+      p.ExpectCount(4);
+      graph.points.push_back({p.Id(1), {p.Number(2), p.Number(3)}});
+    } else if (tag == "EDGE_SE2_XY") {
+      p.ExpectCount(8);
+      graph.point_edges.push_back(
+          {p.Id(1), p.Id(2), {p.Number(3), p.Number(4)}, p.UpperInformation2(5)});
     } else if (tag == "FIX") {
       p.ExpectCount(2);
       graph.fixed.push_back(p.Id(1));
     } else {
-      p.Fail("unsupported tag '" + tag + "' (expected VERTEX_SE2, EDGE_SE2, EDGE_PRIOR_SE2, FIX)");
+      p.Fail("unsupported tag '" + tag +
+             "' (expected VERTEX_SE2, EDGE_SE2, EDGE_PRIOR_SE2, VERTEX_XY, EDGE_SE2_XY, FIX)");
     }
   }
   if (in.bad()) throw std::runtime_error(source_name + ": read error");
@@ -127,6 +142,7 @@ G2oGraph ReadG2o(const std::filesystem::path& path) {
 
 void WriteG2o(std::ostream& out, const G2oGraph& graph) {
   out.precision(std::numeric_limits<double>::max_digits10);
+  for (const auto& c : graph.comments) out << "# " << c << '\n';
   for (const auto& v : graph.vertices) {
     out << "VERTEX_SE2 " << v.id;
     WritePose(out, v.T_world_pose);
@@ -144,6 +160,13 @@ void WriteG2o(std::ostream& out, const G2oGraph& graph) {
     WritePose(out, p.T_world_pose);
     WriteInformation(out, p.information);
     out << '\n';
+  }
+  for (const auto& p : graph.points) {
+    out << "VERTEX_XY " << p.id << ' ' << p.p_world.x_m << ' ' << p.p_world.y_m << '\n';
+  }
+  for (const auto& e : graph.point_edges) {
+    out << "EDGE_SE2_XY " << e.pose << ' ' << e.point << ' ' << e.p_pose.x_m << ' ' << e.p_pose.y_m
+        << ' ' << e.information[0] << ' ' << e.information[1] << ' ' << e.information[3] << '\n';
   }
 }
 
@@ -170,18 +193,67 @@ PoseGraph2d ToPoseGraph(const G2oGraph& g, FactorKind kind, ErrorConvention conv
   for (const auto& e : g.edges) graph.AddBetween(e.i, e.j, e.T_i_j, e.information, kind);
   for (const auto& p : g.priors) graph.AddPrior(p.id, p.T_world_pose, p.information);
   for (const PoseId id : g.fixed) graph.SetPoseConstant(id);
+  for (const auto& p : g.points) graph.AddPoint(p.id, p.p_world);
+  for (const auto& e : g.point_edges) {
+    if (!graph.HasPoint(e.point)) {
+      throw std::invalid_argument("g2o: EDGE_SE2_XY names point " + std::to_string(e.point) +
+                                  ", which has no VERTEX_XY");
+    }
+    if (!graph.HasPose(e.pose)) graph.AddPose(e.pose, Pose2{});
+    graph.AddPointObservation(e.pose, e.point, e.p_pose, e.information);
+  }
   return graph;
 }
 
 G2oGraph ToG2o(const PoseGraph2d& graph) {
   G2oGraph g;
-  for (const PoseId id : graph.PoseIds()) g.vertices.push_back({id, graph.Pose(id)});
+  PoseId max_id = -1;
+  std::size_t aux_poses = 0, aux_factors = 0;
+  for (const PoseId id : graph.PoseIds()) {
+    if (id < 0) {
+      ++aux_poses;
+      continue;
+    }
+    g.vertices.push_back({id, graph.Pose(id)});
+    max_id = std::max(max_id, id);
+  }
   for (const Factor& f : graph.Factors()) {
-    if (f.kind == FactorKind::kPrior) {
+    if (f.i < 0 || f.j < 0) {
+      ++aux_factors;
+    } else if (f.kind == FactorKind::kPrior) {
       g.priors.push_back({f.i, f.measurement, f.information});
     } else {
       g.edges.push_back({f.i, f.j, f.measurement, f.information});
     }
+  }
+  // Points after the poses in g2o's one vertex id space, in observation order.
+  std::map<PointId, PointId> vertex_of;
+  std::size_t with_radius = 0, aux_observations = 0;
+  for (const auto& o : graph.PointObservations()) {
+    if (o.pose < 0) {
+      ++aux_observations;
+      continue;
+    }
+    auto it = vertex_of.find(o.point);
+    if (it == vertex_of.end()) {
+      const PointId vid = max_id + 1 + static_cast<PointId>(vertex_of.size());
+      it = vertex_of.emplace(o.point, vid).first;
+      g.points.push_back({vid, graph.Point(o.point)});
+      if (graph.PointRadius(o.point)) ++with_radius;
+    }
+    g.point_edges.push_back({o.pose, it->second, o.p_pose, o.information});
+  }
+  if (aux_poses > 0 || aux_observations > 0) {
+    g.comments.push_back("left out: " + std::to_string(aux_poses) + " auxiliary nodes (ids < 0: " +
+                         "heading-bias states, yaw-only random walks g2o's SE2 types do not " +
+                         "model) and the " + std::to_string(aux_factors + aux_observations) +
+                         " factors that name them; the poses hold their effect");
+  }
+  if (with_radius > 0) {
+    g.comments.push_back(std::to_string(with_radius) +
+                         " points carry a radius state (observations of an object's near " +
+                         "face); written at their centre estimate with the raw observations, " +
+                         "which g2o reads as EdgeSE2PointXY without the radius");
   }
   return g;
 }

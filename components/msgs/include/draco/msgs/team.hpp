@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "draco/msgs/loops.hpp"
+#include "draco/msgs/map.hpp"
 #include "draco/msgs/objects.hpp"
 
 namespace draco::msgs {
@@ -77,5 +78,14 @@ inline const Pose2* GuessOf(const MapMatches& m, int robot) {
   if (it->second.chained) return &it->second.T_own_teammate_chained;
   return nullptr;
 }
+
+// The team estimate after a two-step PGO: every placed robot's keyframes in the own map frame
+// (own robot included; teammates not placed are absent). team.TwoStepOptimizer publishes it
+// whenever it optimised; fleet.Ros2Monitor shows it.
+struct TeamTrajectories {
+  double time_s = 0.0;
+  int own_robot = 0;
+  std::map<int, std::vector<KeyframePose>> trajectories;
+};
 
 }  // namespace draco::msgs
