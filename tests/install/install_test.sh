@@ -11,7 +11,12 @@
 #    (run_info.json names it, with the version --version prints); trajectories parse;
 # 4. draco run runs the default graph from the share folder;
 # 5. draco-fleet --mode dds starts the draco-robot next to it in <prefix>/bin, both on the
-#    loopback profile from the share folder.
+#    loopback profile from the share folder;
+# 6. the installed systemd unit as systemd runs it, one instance per robot: its ExecStart line
+#    with %i and %S expanded, a clean environment holding only the unit's Environment= and an
+#    environment file made from the installed robot.env.example; every instance exits 0, writes
+#    into its state directory, and its own trajectory equals step 5's (local SLAM does not
+#    depend on the link) with the team link heard and as many inter-robot loops (within 10 %).
 set -u
 build=$1
 cmake=$2
@@ -121,5 +126,51 @@ for robot in ("alpha", "bravo"):
     stats = json.load(open(os.path.join(out, robot + ".link_stats.json")))
     assert all(t["frames_received"] > 0 for t in stats["teammates"]), stats["teammates"]
     assert os.path.getsize(os.path.join(out, robot + ".trajectory.tum")) > 0
+PY
+
+# 6. The systemd unit's command, per instance, as systemd would start it.
+exec_start=$(sed -n 's/^ExecStart=//p' "$prefix/$unit")
+state=$work/state
+domain2=$(( domain + 1 ))
+pids=()
+for robot in alpha bravo; do
+  sed -e "s|^DRACO_MISSION=.*|DRACO_MISSION=$work/m|" -e "s|^DRACO_DOMAIN=.*|DRACO_DOMAIN=$domain2|" \
+    -e 's|^DRACO_DDS_CONFIG=.*|DRACO_DDS_CONFIG=loopback|' \
+    -e 's|^#DRACO_ARGS=.*|DRACO_ARGS=--set link.lockstep_timeout_s=5 --quiet|' \
+    "$share/systemd/robot.env.example" >"$work/$robot.env"
+  envs=(DRACO_LOG_LEVEL=info HOME="$HOME" PATH=/usr/bin:/bin)
+  while IFS= read -r line; do
+    case $line in '' | '#'*) continue ;; esac
+    envs+=("$line")
+  done <"$work/$robot.env"
+  args=$(grep '^DRACO_ARGS=' "$work/$robot.env" | cut -d= -f2-)
+  cmd=${exec_start//%i/$robot}
+  cmd=${cmd//%S/$state}
+  cmd=${cmd//\$DRACO_ARGS/$args}
+  mkdir -p "$state/draco-slam/$robot"  # StateDirectory=
+  # shellcheck disable=SC2086  # split as systemd splits ExecStart
+  (cd / && env -i "${envs[@]}" $cmd >"$work/unit-$robot.log" 2>&1) &
+  pids+=($!)
+done
+for i in 0 1; do
+  wait "${pids[$i]}" || { cat "$work"/unit-*.log; fail "instance ${i} of $unit exited non-zero"; }
+done
+python3 - "$state/draco-slam" f/dds <<'PY' || { cat "$work"/unit-*.log; fail "the unit's outputs"; }
+import csv, json, os, sys
+state, fleet = sys.argv[1:]
+def loops(path):  # accepted inter-robot loops
+    return sum(1 for r in csv.DictReader(open(path)) if r["accepted"] == "1")
+for robot in ("alpha", "bravo"):
+    out = os.path.join(state, robot)
+    same = open(os.path.join(out, robot + ".trajectory.tum")).read()
+    assert same == open(os.path.join(fleet, robot + ".trajectory.tum")).read(), robot
+    stats = json.load(open(os.path.join(out, robot + ".link_stats.json")))
+    assert all(t["frames_received"] > 0 for t in stats["teammates"]), stats["teammates"]
+    info = json.load(open(os.path.join(out, robot + ".run_info.json")))
+    assert info["files"]["dds_config"].endswith("share/draco-slam/dds/loopback.xml"), info
+    a = loops(os.path.join(out, robot + ".inter_loops.csv"))
+    b = loops(os.path.join(fleet, robot + ".inter_loops.csv"))
+    assert abs(a - b) <= max(1, 0.1 * b), (robot, a, b)
+    print(robot, "as a service: trajectory as draco-fleet's,", a, "accepted inter-robot loops, as", b)
 PY
 echo ok
