@@ -990,6 +990,117 @@ TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   EXPECT_EQ(run(msgs::kUnknownHeading, 1.3 + M_PI, gap)->estimate().trajectories.count(1), 1u);
 }
 
+// A 5 x 5 grid of piles 4 m apart looks the same turned by 90, 180 or 270 deg about its centre.
+// Robot A's keyframes 0-6 along x image it; robot B, whose map frame is T_A_B in A's, sends one
+// scan of it. With neither map's absolute heading the registration ambiguity test finds the
+// turned fits and refuses the registration; with both headings known the compass excludes the
+// turns and the registration is a candidate; with headings that contradict the guess the
+// registration is refused as a heading mismatch.
+struct GridExchange {
+  static constexpr double kGap = 0.5236;
+  Pose2 T_A_B{5.0, 3.0, 0.3};
+  std::vector<Point2> world;
+
+  GridExchange() {
+    for (int u = -2; u <= 2; ++u) {
+      for (int v = -2; v <= 2; ++v) {
+        for (int k = 0; k < 12; ++k) {
+          const double a = k * std::numbers::pi / 6.0;
+          world.push_back({18.0 + 4.0 * u + 0.3 * std::cos(a), 4.0 * v + 0.3 * std::sin(a)});
+        }
+      }
+    }
+  }
+  std::vector<Point2> Seen(const Pose2& T_world_body) const {
+    std::vector<Point2> out;
+    for (const auto& p : world) out.push_back(reg::Apply(reg::Inverse(T_world_body), p));
+    return out;
+  }
+  // Runs one exchange step; returns the configured window's registration status.
+  std::pair<reg::RegistrationStatus, std::vector<msgs::InterRobotLoop>> Run(double own_heading,
+                                                                            double mate_heading) {
+    ScanExchangeStageOptions o;
+    o.robot_id = kA;
+    o.log_windows = {};
+    o.max_heading_gap_rad = kGap;
+    ScanExchangeStage stage(o);
+    msgs::KeyframeTrajectory traj;
+    msgs::ObjectMap own;
+    own.map_heading_rad = own_heading;
+    msgs::Object pile;
+    pile.id = 1;
+    pile.center = pile.rect_center = {18.0, 0.0};
+    pile.length_m = pile.breadth_m = 16.6;
+    pile.num_points = 300;
+    for (int i = 0; i < 7; ++i) {
+      msgs::Keyframe kf;
+      kf.index = i;
+      kf.time_s = i;
+      kf.T_odom_body = {1.0 * i, 0.0, 0.0};
+      kf.points_body = Seen(kf.T_odom_body);
+      stage.OnKeyframe(kf);
+      traj.keyframes.push_back({i, kf.time_s, kf.T_odom_body});
+      pile.keyframes.push_back(i);
+    }
+    traj.time_s = 6.0;
+    stage.OnTrajectory(traj);
+    own.objects.push_back(pile);
+    const Pose2 W_b{3.0, 1.0, 0.1};  // B's keyframe in A's map frame (the world)
+    const Pose2 P_b = reg::Compose(reg::Inverse(T_A_B), W_b);
+    msgs::KeyframePoses poses;
+    poses.header.robot_id = kB;
+    poses.header.incarnation = 3;
+    poses.full = true;
+    poses.poses.push_back({0, 0.0, P_b, 300});
+    stage.OnKeyframePoses(poses);
+    msgs::ScanReply scan;
+    scan.header = poses.header;
+    scan.requester_robot = kA;
+    scan.keyframe = 0;
+    scan.T_map_kf = P_b;
+    scan.points_kf = Seen(W_b);
+    stage.OnScanReply(scan);
+    msgs::MapMatches matches;
+    auto& g = matches.guesses[kB];
+    g.robot_id = kB;
+    g.matched = true;
+    g.match.status = msgs::MatchStatus::kMatched;
+    g.match.T_a_b = T_A_B;
+    g.teammate_map_heading_rad = mate_heading;
+    msgs::TeamStepStats st;
+    const auto out = stage.Step(10.0, own, matches, &st);
+    EXPECT_FALSE(stage.attempts().empty());
+    if (stage.attempts().empty()) return {reg::RegistrationStatus::kEmptyTarget, {}};
+    return {stage.attempts().front().status, out.candidates};
+  }
+};
+
+TEST(ScanExchangeStage, HeadingsSettleATurnAmbiguityAndRefuseATurnedRegistration) {
+  GridExchange grid;
+  const double nan = msgs::kUnknownHeading;
+  const auto unknown = grid.Run(0.2, nan);
+  EXPECT_EQ(unknown.first, reg::RegistrationStatus::kAmbiguous);
+  EXPECT_TRUE(unknown.second.empty());
+  const auto known = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + 0.05);  // 3 deg AHRS error
+  EXPECT_EQ(known.first, reg::RegistrationStatus::kAccepted);
+  EXPECT_EQ(known.second.size(), 7u);  // one per own keyframe near the scan
+  for (const auto& loop : known.second) {
+    const Pose2 truth = reg::Between(Pose2{1.0 * loop.own_keyframe, 0.0, 0.0}, {3.0, 1.0, 0.1});
+    const Pose2 e = reg::Between(truth, loop.T_ownkf_teammatekf);
+    EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.05) << loop.own_keyframe;
+    EXPECT_LT(std::abs(e.yaw_rad), 0.005) << loop.own_keyframe;
+  }
+  // The compass says B's map is turned a further 45 deg: no turn is probed (each lands 45 deg
+  // or more from it), and the registration, turned as the guess, is refused.
+  const auto turned = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + std::numbers::pi / 4);
+  EXPECT_EQ(turned.first, reg::RegistrationStatus::kHeadingMismatch);
+  EXPECT_TRUE(turned.second.empty());
+  // Turned a further 90 deg: the 90 deg probe is one the compass allows, and it fits.
+  const auto quarter = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + std::numbers::pi / 2);
+  EXPECT_EQ(quarter.first, reg::RegistrationStatus::kAmbiguous);
+  EXPECT_TRUE(quarter.second.empty());
+}
+
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   GraphMatcherStageOptions o;
   o.robot_id = kA;

@@ -333,6 +333,7 @@ void GraphMatcherStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
   it->second.map_changed = true;
   it->second.map_seq = header.seq;
   matches_.guesses[header.robot_id].robot_id = header.robot_id;
+  matches_.guesses[header.robot_id].teammate_map_heading_rad = map.map_heading_rad;
 }
 
 void GraphMatcherStage::OnScanRequest(const msgs::ScanRequest& request) {
@@ -621,6 +622,26 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
         guess = g->second.T_own_teammate_chained;
       }
     }
+    // With both maps' absolute headings known, the compass already tells a registration from
+    // its turned alternatives: the ambiguity test probes only the turns the headings allow,
+    // and a registration whose map-to-map rotation the headings exclude is refused.
+    msgs::ObjectMap mate_heading;
+    if (g != matches.guesses.end())
+      mate_heading.map_heading_rad = g->second.teammate_map_heading_rad;
+    const std::optional<double> yaw_prior =
+        options_.max_heading_gap_rad > 0.0 ? objects::HeadingYawPrior(own_objects, mate_heading)
+                                           : std::nullopt;
+    reg::RegistrationOptions registration = options_.registration;
+    if (yaw_prior && guess) {
+      std::vector<double> turns;
+      for (const double t : registration.ambiguity_turns_deg) {
+        if (objects::HeadingAllows(yaw_prior, guess->yaw_rad + t * M_PI / 180.0,
+                                   options_.max_heading_gap_rad)) {
+          turns.push_back(t);
+        }
+      }
+      registration.ambiguity_turns_deg = turns;
+    }
     for (std::size_t i = 0; i < mate.scans.size(); ++i) {
       if (mate.scan_registered[i]) continue;
       const msgs::ScanReply& scan = mate.scans[i];
@@ -640,8 +661,15 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
         if (keys_.count({robot, own_index, scan.keyframe})) continue;
         const Pose2 seed =
             reg::SeedPose(own_scans_[static_cast<std::size_t>(k)].T_map_kf, *guess, scan.T_map_kf);
-        const auto r = reg::RegisterScan(own_scans_, k, scan.points_kf, seed, options_.registration,
-                                         options_.robot_id, robot, scan.keyframe);
+        auto r = reg::RegisterScan(own_scans_, k, scan.points_kf, seed, registration,
+                                   options_.robot_id, robot, scan.keyframe);
+        if (r.accepted() && yaw_prior) {
+          const double map_yaw = own_scans_[static_cast<std::size_t>(k)].T_map_kf.yaw_rad +
+                                 r.loop.T_ownkf_teammatekf.yaw_rad - scan.T_map_kf.yaw_rad;
+          if (!objects::HeadingAllows(yaw_prior, map_yaw, options_.max_heading_gap_rad)) {
+            r.status = reg::RegistrationStatus::kHeadingMismatch;
+          }
+        }
         Log(now_s, options_.registration.window, true, r);
         for (const int w : options_.log_windows) {
           if (w == options_.registration.window || w < 0) continue;

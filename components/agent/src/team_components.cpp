@@ -350,6 +350,11 @@ class ScanExchangeComponent final : public graph::Component {
                        "distance of the target",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("max_heading_gap_rad", &o_.max_heading_gap_rad,
+               {.doc = "with both maps' absolute headings known: the ambiguity test probes only "
+                       "turns within this of the headings' difference, and registrations "
+                       "implying a rotation further from it are refused (<= 0: off)",
+                .unit = "rad"});
     spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
                {.doc = "own keyframes this close to a placed teammate scan are candidates",
                 .unit = "m",

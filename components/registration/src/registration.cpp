@@ -119,6 +119,8 @@ const char* RegistrationStatusName(RegistrationStatus status) {
       return "large correction";
     case RegistrationStatus::kAmbiguous:
       return "ambiguous";
+    case RegistrationStatus::kHeadingMismatch:
+      return "heading mismatch";
   }
   return "unknown";
 }

@@ -249,6 +249,10 @@ struct ScanExchangeStageOptions {
   int max_scans_per_request = 20;
   int max_teammate_keyframes = 20000;
   int max_teammate_scans = 400;
+  // With both maps' absolute headings known: the ambiguity test probes only turns within this
+  // of the headings' difference, and a registration implying a map-to-map rotation further
+  // from it is refused (kHeadingMismatch). <= 0: off.
+  double max_heading_gap_rad = 0.5236;  // 30 deg, as team.GraphMatcher's
 };
 
 // One registration as logged for evaluation: the window it used, its ICP result and overlap

@@ -49,6 +49,9 @@ struct MapGuess {
   bool chained = false;
   int chained_via = -1;
   Pose2 T_own_teammate_chained;
+  // The teammate object map's absolute heading (ObjectMap::map_heading_rad; kUnknownHeading
+  // when unknown): team.ScanExchange holds registrations to the headings with it.
+  double teammate_map_heading_rad = kUnknownHeading;
 };
 
 // Map-to-map guesses after a step's matching, per teammate (ascending id).

@@ -148,6 +148,9 @@ enum class RegistrationStatus : std::uint8_t {
   kLowOverlap,
   kLargeCorrection,
   kAmbiguous,  // another pose, distinct from the answer, fits about as well
+  // Set by the caller (team.ScanExchange): the map-to-map rotation the answer implies is
+  // further from the maps' absolute headings' difference than allowed.
+  kHeadingMismatch,
 };
 const char* RegistrationStatusName(RegistrationStatus status);
 
