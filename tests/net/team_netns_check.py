@@ -1,0 +1,301 @@
+#!/usr/bin/env python3
+"""Checks and the summary table of tests/net/team_netns.sh (a team across network namespaces).
+
+  team_netns_check.py files DIR REF_DIR ROBOT...     every output file parses; REF_DIR's files
+                                                     of each robot are all there too
+  team_netns_check.py heard DIR ROBOT...            every teammate known, frames received > 0,
+                                                     nothing rejected (as tests/fleet_app)
+  team_netns_check.py compare REF_EVAL CASE_EVAL    accepted loops, team ATE and robots placed
+                                                     against the in-process run (draco-eval
+                                                     tables), tolerance as draco-fleet --mode both
+  team_netns_check.py heard-after DIR CUT BOUND_S ROBOT...
+                                                     frames of CUT sent after mission time
+                                                     BOUND_S reached each teammate, and theirs
+                                                     reached CUT (the cut robot heard again)
+  team_netns_check.py table WORK CASE...            the summary table of the cases run
+
+Exit 0 when the check holds, 1 (with the reasons on stdout) when it does not.
+"""
+import csv
+import json
+import math
+import os
+import sys
+
+
+def fail(problems):
+    for p in problems:
+        print("  " + p)
+    return 1 if problems else 0
+
+
+def numbers(tokens):
+    vals = [float(t) for t in tokens]
+    if not all(math.isfinite(v) for v in vals):
+        raise ValueError("not finite")
+    return vals
+
+
+def check_file(path):
+    """None when the file parses, else why not."""
+    name = os.path.basename(path)
+    try:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        if name.endswith(".json"):
+            json.loads(text)
+        elif name.endswith(".tum"):
+            for i, line in enumerate(text.splitlines(), 1):
+                if not line.strip() or line.startswith("#"):
+                    continue
+                try:
+                    if len(numbers(line.split())) != 8:
+                        return "line %d: %d fields, expected 8" % (i, len(line.split()))
+                except ValueError:
+                    return "line %d: not 8 numbers: %r" % (i, line)
+        elif name.endswith(".csv"):
+            rows = list(csv.reader(text.splitlines()))
+            if not rows:
+                return "empty (no header)"
+            for i, row in enumerate(rows[1:], 2):
+                if len(row) != len(rows[0]):
+                    return "line %d: %d fields, header has %d" % (i, len(row), len(rows[0]))
+        elif name.endswith(".g2o"):
+            for i, line in enumerate(text.splitlines(), 1):
+                tokens = line.split()
+                if not tokens:
+                    continue
+                try:
+                    numbers(tokens[1:])
+                except ValueError:
+                    return "line %d: %s with a value that is not a number" % (i, tokens[0])
+        elif name.endswith(".pcd"):
+            lines = text.splitlines()
+            points = [l for l in lines if l.startswith("POINTS ")]
+            start = [i for i, l in enumerate(lines) if l.startswith("DATA ascii")]
+            if not points or not start:
+                return "no POINTS or DATA ascii line"
+            data = [l for l in lines[start[0] + 1:] if l.strip()]
+            if len(data) != int(points[0].split()[1]):
+                return "%d points, header says %s" % (len(data), points[0].split()[1])
+            for l in data:
+                numbers(l.split())
+        elif name.endswith(".ply"):
+            lines = text.splitlines()
+            verts = [l for l in lines if l.startswith("element vertex ")]
+            if not verts or "end_header" not in lines:
+                return "no vertex element or end_header"
+            data = [l for l in lines[lines.index("end_header") + 1:] if l.strip()]
+            if len(data) < int(verts[0].split()[2]):
+                return "%d lines, header says %s vertices" % (len(data), verts[0].split()[2])
+            for l in data:
+                numbers(l.split())
+    except (ValueError, UnicodeDecodeError, OSError) as e:
+        return str(e)
+    return None
+
+
+def cmd_files(d, ref, robots):
+    problems = []
+    names = sorted(os.listdir(d))
+    for n in names:
+        if ".partial" in n:
+            problems.append("%s: a partial file was left" % n)
+    for r in robots:
+        mine = [n for n in names if n.startswith(r + ".") and n != r + ".log"]
+        for n in mine:
+            why = check_file(os.path.join(d, n))
+            if why:
+                problems.append("%s: %s" % (n, why))
+        # Every file the in-process run wrote for this robot (draco-fleet's own summary files
+        # aside) is here too.
+        want = [n for n in os.listdir(ref) if n.startswith(r + ".")]
+        for n in sorted(set(want) - set(mine)):
+            problems.append("%s: missing (the in-process run wrote it)" % n)
+        if len(mine) < 10:
+            problems.append("%s: only %d files" % (r, len(mine)))
+    return fail(problems)
+
+
+def stats(d, r):
+    with open(os.path.join(d, r + ".link_stats.json"), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def cmd_heard(d, robots):
+    problems = []
+    for r in robots:
+        s = stats(d, r)
+        for t in s["teammates"]:
+            if not t["known"] or t["frames_received"] <= 0:
+                problems.append("%s heard nothing from robot %d: %s" % (r, t["robot_id"], t))
+            if t["frames_rejected"] != 0:
+                problems.append("%s rejected frames of robot %d: %s" % (r, t["robot_id"], t))
+        if s["counters"]["rejected"] != 0:
+            problems.append("%s rejected %d frames" % (r, s["counters"]["rejected"]))
+    return fail(problems)
+
+
+def eval_table(path):
+    """Rows of draco-eval's "team run" table: name -> (accepted, team ATE m, placed)."""
+    rows = {}
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    start = [i for i, l in enumerate(lines) if l.startswith("robot") and "accept" in l]
+    if not start:
+        raise SystemExit("%s: no team table (draco-eval failed?)" % path)
+    for l in lines[start[0] + 1:]:
+        t = l.split()
+        if len(t) != 10:
+            break
+        rows[t[0]] = (int(t[7]), float(t[4]), int(t[5]))
+    return rows
+
+
+def compare(ref_path, case_path):
+    """Per robot: (name, ref, case, same), the rule of draco-fleet --mode both (10 %)."""
+    ref, case = eval_table(ref_path), eval_table(case_path)
+    out = []
+    for name, (a_acc, a_ate, a_placed) in ref.items():
+        if name not in case:
+            out.append((name, ref[name], None, False))
+            continue
+        b_acc, b_ate, b_placed = case[name]
+        loops_ok = abs(a_acc - b_acc) <= 0.1 * max(a_acc, 1)
+        ate_ok = (a_ate < 0 and b_ate < 0) or abs(a_ate - b_ate) <= 0.1 * max(a_ate, 1e-3)
+        out.append((name, ref[name], case[name], loops_ok and ate_ok and a_placed == b_placed))
+    return out
+
+
+def cmd_compare(ref_path, case_path):
+    problems = []
+    for name, a, b, same in compare(ref_path, case_path):
+        line = "%-8s in-process accepted %d, team ATE %.3f m, placed %d" % ((name,) + a)
+        line += "; here " + ("missing" if b is None else
+                             "accepted %d, team ATE %.3f m, placed %d" % b)
+        print("  %s: %s" % (line, "same" if same else "DIFFERENT"))
+        if not same:
+            problems.append(name + ": differs from the in-process run (tolerance 10 %)")
+    return fail(problems)
+
+
+def sent_until(d, r, bound_s):
+    """Frames robot r handed to its link up to mission time bound_s (its link_traffic.csv)."""
+    with open(os.path.join(d, r + ".link_traffic.csv"), encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return sum(1 for row in rows if float(row["start_s"]) <= bound_s), len(rows)
+
+
+def cmd_heard_after(d, cut, bound_s, robots):
+    """A frame whose transmission started after bound_s (mission time) was sent after the link
+    came back; receiving more frames from a robot than it had sent by then proves one of them
+    crossed after the cut."""
+    problems = []
+    ids = {r: i for i, r in enumerate(robots)}
+    for r in robots:
+        if r == cut:
+            continue
+        for sender, receiver in ((cut, r), (r, cut)):
+            before, total = sent_until(d, sender, bound_s)
+            got = [t["frames_received"] for t in stats(d, receiver)["teammates"]
+                   if t["robot_id"] == ids[sender]][0]
+            ok = got > before
+            print("  %s -> %s: %d frames sent by mission time %.1f s (of %d), %d received: %s"
+                  % (sender, receiver, before, bound_s, total, got,
+                     "heard after the cut" if ok else "NOT heard after the cut"))
+            if not ok:
+                problems.append("%s did not hear %s after the cut" % (receiver, sender))
+    return fail(problems)
+
+
+def read_meta(path):
+    meta = {}
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as f:
+            for line in f:
+                if "=" in line:
+                    k, v = line.rstrip("\n").split("=", 1)
+                    meta[k] = v
+    return meta
+
+
+def cmd_table(work, cases):
+    ref_eval = os.path.join(work, "ref", "eval.txt")
+    head = ("%-22s %-8s %4s %6s %5s %5s %-9s %9s %9s %4s %4s %6s %8s %-9s" %
+            ("case", "robot", "exit", "wall s", "sent", "recv", "recv from", "DDS tx/rx",
+             "wire kB", "lsto", "acc", "placed", "team m", "vs inproc"))
+    print(head)
+    print("-" * len(head))
+    notes = []
+    for case in cases:
+        d = os.path.join(work, case)
+        meta = read_meta(os.path.join(d, "meta.txt"))
+        robots = meta.get("robots", "").split()
+        cmp = {}
+        if os.path.exists(os.path.join(d, "eval.txt")):
+            try:
+                cmp = {c[0]: c for c in compare(ref_eval, os.path.join(d, "eval.txt"))}
+            except SystemExit:
+                cmp = {}
+        for r in robots:
+            try:
+                s = stats(d, r)
+                sent = sum(k["frames_sent"] for k in s["kinds"].values())
+                per = [t["frames_received"] for t in s["teammates"]]
+                c = s["counters"]
+                dds = "%d/%d" % (c["transport_frames_sent"], c["transport_frames_received"])
+                lsto = str(c["lockstep_timeouts"])
+            except (OSError, ValueError, KeyError):
+                sent, per, dds, lsto = "-", [], "-", "-"
+            acc = team = placed = "-"
+            verdict = "-"
+            if r in cmp:
+                _, a, b, same = cmp[r]
+                if b is not None:
+                    acc, team, placed = str(b[0]), "%.3f" % b[1], str(b[2])
+                verdict = "same" if same else "DIFFERENT"
+            wire = meta.get("wire." + r, "-")
+            print("%-22s %-8s %4s %6s %5s %5s %-9s %9s %9s %4s %4s %6s %8s %-9s" %
+                  (meta.get("title", case)[:22], r, meta.get("exit." + r, "-"),
+                   meta.get("wall." + r, "-"), sent, sum(per) if per else "-",
+                   "/".join(str(p) for p in per) or "-", dds, wire, lsto, acc, placed, team,
+                   verdict))
+        if meta.get("note"):
+            notes.append("%s: %s" % (meta.get("title", case), meta["note"]))
+    ref = os.path.join(work, "ref", "eval.txt")
+    if os.path.exists(ref):
+        rows = eval_table(ref)
+        print("%-22s %s" % ("in-process reference", ", ".join(
+            "%s accepted %d, team %.3f m, placed %d" % (n, a, t, p)
+            for n, (a, t, p) in rows.items())))
+    for n in notes:
+        print(n)
+    print("sent: frames the robot's link sent (link_stats kinds); recv: frames it received "
+          "from its teammates (recv from: per teammate, in id order without itself); DDS tx/rx: "
+          "frames the transport handed to / took from Cyclone; wire kB: bytes out/in on the "
+          "robot's bridge port; lsto: lock-step timeouts; acc: accepted inter-robot loops; "
+          "team m: team ATE (draco-eval)")
+    return 0
+
+
+def main(argv):
+    if len(argv) < 2:
+        print(__doc__)
+        return 2
+    cmd, args = argv[1], argv[2:]
+    if cmd == "files":
+        return cmd_files(args[0], args[1], args[2:])
+    if cmd == "heard":
+        return cmd_heard(args[0], args[1:])
+    if cmd == "compare":
+        return cmd_compare(args[0], args[1])
+    if cmd == "heard-after":
+        return cmd_heard_after(args[0], args[1], float(args[2]), args[3:])
+    if cmd == "table":
+        return cmd_table(args[0], args[1:])
+    print(__doc__)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
