@@ -11,7 +11,7 @@
 #   4  unicast, paced at 4x real time: charlie's link cut (bridge port down) for 3.5 s mid-
 #      mission, then back
 # Checks: every daemon exits 0 and every output file parses (and none the in-process run
-# writes is missing); cases 1, 2, 4: every robot heard every teammate, nothing rejected (case 3
+# writes is missing); cases 1, 2, 3a, 4: every robot heard every teammate, nothing rejected (3b
 # reports what was heard); cases 1, 2: accepted loops, team ATE and robots placed agree with
 # draco-fleet --mode inproc on the same mission (draco-eval of both folders, draco-fleet's 10 %
 # rule); case 4: frames sent after the link came back reached both sides. Prints a table of
@@ -319,12 +319,14 @@ if case_on 3; then
   else
     for variant in a b; do
       name=c3$variant
+      # A lossy 62.5 kbit/s link delays reliable frames by seconds (resends): the lock-step
+      # waits up to 30 s for a teammate here instead of 5 s.
       if [ $variant = a ]; then
         title="3a 62.5k+10% reliable"
-        extra=()
+        extra=(--set link.lockstep_timeout_s=30)
       else
         title="3b 62.5k+10% best-eff."
-        extra=(--set link.dds_reliability=best_effort)
+        extra=(--set link.lockstep_timeout_s=30 --set link.dds_reliability=best_effort)
       fi
       if ! err=$(shape "$cut_robot" 2>&1); then
         fail "case 3: cannot shape the link: $err"
@@ -334,11 +336,16 @@ if case_on 3; then
       run_team "$name" "$title" unicast 0 150 -- "${extra[@]}"
       note=$(shaping_note "$cut_robot")
       unshape "$cut_robot"
-      # Exit 0 and whole outputs are required; what was heard is measured and reported (on
-      # this link it is not everything: docs/fleet.md, "A team across network namespaces").
-      check_case "$name" "$title" no-heard no-compare
-      if ! python3 "$check" heard "$work/$name" "${robots[@]}" >/dev/null; then
-        note="$note; NOTE: not every robot heard every teammate (0 in 'recv from')"
+      # Exit 0 and whole outputs always; with reliable DDS every robot must hear every
+      # teammate too (the discovery clock frames back off, so they do not fill a slow link);
+      # best effort is measured and reported.
+      if [ $variant = a ]; then
+        check_case "$name" "$title" heard no-compare
+      else
+        check_case "$name" "$title" no-heard no-compare
+        if ! python3 "$check" heard "$work/$name" "${robots[@]}" >/dev/null; then
+          note="$note; NOTE: not every robot heard every teammate (0 in 'recv from')"
+        fi
       fi
       echo "note=$note" >>"$work/$name/meta.txt"
       ran+=("$name")

@@ -334,6 +334,7 @@ bool LinkEndpoint::InStep(const TeammateLinkState& t, double now_s) const {
 void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& cancelled) {
   const auto start = std::chrono::steady_clock::now();
   auto last_clock = start;
+  double clock_interval_s = 0.05;  // discovery repeats: 50 ms, doubling up to 1 s
   const double need = now_s - 1.5 * options_.tick_s;
   while (true) {
     bool ready = true;
@@ -359,11 +360,14 @@ void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& c
       }
       break;
     }
-    if (!started_ && std::chrono::duration<double>(now - last_clock).count() > 0.05) {
-      // Discovery: repeat, a teammate's reader may have matched since. Once running, one
-      // clock frame per tick (reliable) is enough, and repeats would only fill histories.
+    if (!started_ && std::chrono::duration<double>(now - last_clock).count() > clock_interval_s) {
+      // Discovery: repeat, a teammate's reader may have matched since; backing off, so that
+      // on a slow link (62.5 kbit/s) the repeats and their reliable resends do not fill the
+      // link before every teammate has joined. Once running, one clock frame per tick
+      // (reliable) is enough, and repeats would only fill histories.
       SendClock(now_s, false);
       last_clock = now;
+      clock_interval_s = std::min(1.0, 2.0 * clock_interval_s);
     }
     std::this_thread::sleep_for(std::chrono::microseconds(500));
     ReceiveAll(now_s);
