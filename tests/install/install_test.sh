@@ -6,7 +6,7 @@
 #    are installed: nothing that collides with Debian's draco package (include/draco,
 #    libdraco*, lib/cmake/draco, draco_encoder ...); the unit starts <prefix>/bin/draco-robot
 #    and passes `systemd-analyze verify` (where systemd-analyze is installed);
-# 2. draco-sim simulates a shipped mission (cut to 20 s, 2 robots);
+# 2. draco-sim simulates a shipped mission (cut to 20 s, 3 robots);
 # 3. draco-local-slam replays it with graphs/local-slam.yaml found in <prefix>/share/draco-slam
 #    (run_info.json names it, with the version --version prints); trajectories parse;
 # 4. draco run runs the default graph from the share folder;
@@ -71,7 +71,7 @@ cd "$work" || fail "cd $work"
 bin=$prefix/bin
 
 # 2. A short mission from a shipped mission file.
-"$bin/draco-sim" "$share/missions/airplane.yaml" --out m --duration-s 20 --robots 2 \
+"$bin/draco-sim" "$share/missions/airplane.yaml" --out m --duration-s 20 --robots 3 \
   --no-pictures >sim.log 2>&1 || { cat sim.log; fail "draco-sim"; }
 [ -f m/mission.yaml ] || fail "no mission.yaml"
 
@@ -85,7 +85,7 @@ info = json.load(open(os.path.join(out, "run_info.json")))
 assert info["files"]["graph"] == os.path.join(share, "graphs/local-slam.yaml"), info["files"]
 assert "draco-local-slam " + info["version"] == version_line, (info["version"], version_line)
 assert info["executable"] == exe, info["executable"]
-for robot in ("alpha", "bravo"):
+for robot in ("alpha", "bravo", "charlie"):
     rows = [l.split() for l in open(os.path.join(out, robot + ".trajectory.tum"))
             if l.strip() and not l.startswith("#")]
     assert len(rows) >= 2, (robot, len(rows))
@@ -111,14 +111,14 @@ json.load(open(os.path.join(out, "runtime_stats.json")))
 assert len(open(os.path.join(out, "sum.csv")).readlines()) > 1
 PY
 
-# 5. A two-daemon team over DDS: draco-fleet starts the draco-robot next to it.
+# 5. A three-daemon team over DDS: draco-fleet starts the draco-robot next to it.
 domain=$(( ($$ % 200) + 10 ))
 "$bin/draco-fleet" m --mode dds --out f --domain "$domain" --set link.lockstep_timeout_s=5 \
   >f.log 2>&1 || { cat f.log; for l in f/dds/*.log; do cat "$l"; done; fail "draco-fleet"; }
 python3 - f/dds "$bin/draco-robot" "$share" <<'PY' || fail "draco-fleet outputs"
 import json, os, sys
 out, robot_exe, share = sys.argv[1:]
-for robot in ("alpha", "bravo"):
+for robot in ("alpha", "bravo", "charlie"):
     info = json.load(open(os.path.join(out, robot + ".run_info.json")))
     assert info["executable"] == robot_exe, info["executable"]
     assert info["files"]["graph"] == os.path.join(share, "graphs/robot.yaml"), info["files"]
@@ -133,7 +133,7 @@ exec_start=$(sed -n 's/^ExecStart=//p' "$prefix/$unit")
 state=$work/state
 domain2=$(( domain + 1 ))
 pids=()
-for robot in alpha bravo; do
+for robot in alpha bravo charlie; do
   sed -e "s|^DRACO_MISSION=.*|DRACO_MISSION=$work/m|" -e "s|^DRACO_DOMAIN=.*|DRACO_DOMAIN=$domain2|" \
     -e 's|^DRACO_DDS_CONFIG=.*|DRACO_DDS_CONFIG=loopback|' \
     -e 's|^#DRACO_ARGS=.*|DRACO_ARGS=--set link.lockstep_timeout_s=5 --quiet|' \
@@ -152,7 +152,7 @@ for robot in alpha bravo; do
   (cd / && env -i "${envs[@]}" $cmd >"$work/unit-$robot.log" 2>&1) &
   pids+=($!)
 done
-for i in 0 1; do
+for i in 0 1 2; do
   wait "${pids[$i]}" || { cat "$work"/unit-*.log; fail "instance ${i} of $unit exited non-zero"; }
 done
 python3 - "$state/draco-slam" f/dds <<'PY' || { cat "$work"/unit-*.log; fail "the unit's outputs"; }
@@ -160,7 +160,7 @@ import csv, json, os, sys
 state, fleet = sys.argv[1:]
 def loops(path):  # accepted inter-robot loops
     return sum(1 for r in csv.DictReader(open(path)) if r["accepted"] == "1")
-for robot in ("alpha", "bravo"):
+for robot in ("alpha", "bravo", "charlie"):
     out = os.path.join(state, robot)
     same = open(os.path.join(out, robot + ".trajectory.tum")).read()
     assert same == open(os.path.join(fleet, robot + ".trajectory.tum")).read(), robot
