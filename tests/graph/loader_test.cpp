@@ -262,6 +262,44 @@ TEST(Loader, MissingFile) {
   }
 }
 
+// Found by fuzz_graph_loader (tests/fuzz): `include: [.]` made yaml-cpp read a directory, and
+// the std::ios_base::failure it threw escaped the loader (std::terminate). A device such as
+// /dev/zero would have been read forever.
+TEST(Loader, IncludeOfADirectoryOrDeviceIsAnError) {
+  for (const std::string target : {".", "/dev/zero"}) {
+    const std::string yaml = "schema: 1\ninclude: [" + target +
+                             "]\ncomponents:\n  - id: src\n    type: example.Ticker\n";
+    ExpectOne(yaml, 2, "is not a regular file");
+  }
+}
+
+// Found by fuzz_graph_loader: a key that is a list or a mapping (`[a]: 1`) threw yaml-cpp's
+// TypedBadConversion out of the loader.
+TEST(Loader, KeysThatAreNotNamesAreErrors) {
+  ExpectOne("schema: 1\n[a]: 1\ncomponents: []\n", 2, "expected a name as key, got a list");
+  ExpectOne("schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n    {x: 1}: 2\n", 5,
+            "expected a name as key, got a mapping");
+  ExpectOne(
+      "schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n"
+      "    params: { [count]: 3 }\n",
+      5, "expected a name as key, got a list");
+  const auto d = Problems(
+      "schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n  - id: scale\n"
+      "    type: example.Scale\n    inputs: { [in]: src/value }\n");
+  ASSERT_FALSE(d.empty());
+  EXPECT_EQ(d[0].line, 7) << d[0].ToString();
+  EXPECT_NE(d[0].message.find("expected a name as key, got a list"), std::string::npos);
+}
+
+TEST(Loader, GraphFileThatIsADirectoryIsAnError) {
+  try {
+    LoadGraphFile(DRACO_GRAPH_TEST_DATA);
+    FAIL() << "expected an error";
+  } catch (const GraphError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Loader, DotShowsNodesEdgesAndTypes) {
   auto g = LoadGraphString(kValid, "g.yaml");
   const std::string dot = ToDot(*g);
