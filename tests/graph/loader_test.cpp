@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "draco/graph/graph.hpp"
 
@@ -289,6 +290,22 @@ TEST(Loader, KeysThatAreNotNamesAreErrors) {
   ASSERT_FALSE(d.empty());
   EXPECT_EQ(d[0].line, 7) << d[0].ToString();
   EXPECT_NE(d[0].message.find("expected a name as key, got a list"), std::string::npos);
+}
+
+// The input fuzz_graph_loader found (tests/data/fuzz/graph-include-directory.txt), as it was.
+TEST(Loader, FuzzFoundIncludeOfADirectory) {
+  const std::string dir = DRACO_SOURCE_DIR "/tests/data/fuzz";
+  std::ifstream in(dir + "/graph-include-directory.txt");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  try {
+    LoadGraphString(text, "fuzz.yaml", {}, dir);
+    FAIL() << "expected an error";
+  } catch (const GraphError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("fuzz.yaml:2:11: error: included '" + dir), std::string::npos) << what;
+    EXPECT_NE(what.find("is not a regular file"), std::string::npos) << what;
+  }
 }
 
 TEST(Loader, GraphFileThatIsADirectoryIsAnError) {
