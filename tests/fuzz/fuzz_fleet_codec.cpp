@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "allocation_bound.hpp"
 #include "draco/fleet/codec.hpp"
 #include "draco/fleet/link.hpp"
 #include "draco/log/log.hpp"
@@ -127,6 +128,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const draco::fuzz::AllocationBound bound(size, 1024, 64 << 20, "fuzz_fleet_codec");
   if (size == 0) return 0;
   const int path = data[0] % 7;
   const std::vector<std::uint8_t> payload(data + 1, data + size);

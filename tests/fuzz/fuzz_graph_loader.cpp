@@ -23,6 +23,7 @@
 #include <string_view>
 #include <vector>
 
+#include "allocation_bound.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/log/log.hpp"
 
@@ -76,6 +77,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const draco::fuzz::AllocationBound bound(size, 1024, 256 << 20, "fuzz_graph_loader");
   const std::string text(reinterpret_cast<const char*>(data), size);
   const std::vector<std::string> sections = Sections(text);
   const fs::path include = g_dir / "fuzz-include.yaml";
