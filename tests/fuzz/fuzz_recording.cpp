@@ -127,7 +127,10 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const draco::fuzz::AllocationBound bound(size, 1100, 64 << 20, "fuzz_recording");
+  // Memory bound: a sonar record is at most what the file holds, a compressed image at most
+  // 1032 pixels a byte (deflate), decoded once more by OpenCV for PNG: 2 x 1032 a byte; YAML
+  // about 200 a byte; a world at most 100000 primitives (the fixed part).
+  const draco::fuzz::AllocationBound bound(size, 2100, 16 << 20, "fuzz_recording");
   if (size == 0) return 0;
   const std::string text(reinterpret_cast<const char*>(data) + 1, size - 1);
   try {

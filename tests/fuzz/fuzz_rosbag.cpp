@@ -39,7 +39,10 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const draco::fuzz::AllocationBound bound(size, 1024, 64 << 20, "fuzz_rosbag");
+  // Memory bound: the index and headers are at most the file; one chunk at most 16384 times
+  // its bytes (bz2 of zeros); one decoded message at most 2^20 values; one image at most 64
+  // Mi pixels (the fixed part).
+  const draco::fuzz::AllocationBound bound(size, 16384, 128 << 20, "fuzz_rosbag");
   {
     std::ofstream out(g_path, std::ios::binary | std::ios::trunc);
     out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));

@@ -179,6 +179,11 @@ TEST(MessageDefinition, ArraysOfEmptyMessagesCannotMultiplyValues) {
               std::string::npos)
         << e.what();
   }
+  // At most 2^20 values a message, whatever its size (int8 arrays: 40 bytes a value).
+  const auto bytes8 = MessageDefinition::Parse("pkg/I", "int8[] a\n");
+  std::vector<std::uint8_t> big(4 + (2u << 20), 0);
+  big[2] = 0x20;  // 2^21 elements
+  EXPECT_THROW(bytes8.Decode(big.data(), big.size()), DecodeError);
   // A real message of many small values is far below the bound.
   const auto floats = MessageDefinition::Parse("pkg/F", "uint8[3000] a\nint16[1000] b\n");
   const std::vector<std::uint8_t> bytes(5000, 1);

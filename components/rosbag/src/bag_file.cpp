@@ -159,7 +159,11 @@ BagFile::BagFile(const std::string& path) : file_(path, std::ios::binary) {
   if (index_pos == 0) {
     Fail("the bag has no index (recording interrupted? 'rosbag reindex' writes one)");
   }
-  if (index_pos < header.end || index_pos >= size_) {
+  if (index_pos >= size_) {
+    Fail("the index is at byte " + std::to_string(index_pos) + ", the file ends at byte " +
+         std::to_string(size_) + ": the bag is truncated");
+  }
+  if (index_pos < header.end) {
     Fail(header.where + ": index position " + std::to_string(index_pos) +
          " is outside the file's records (" + std::to_string(header.end) + " to " +
          std::to_string(size_) + ")");

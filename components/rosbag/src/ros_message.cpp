@@ -9,6 +9,7 @@ namespace {
 
 constexpr int kMaxNesting = 64;
 constexpr std::int64_t kMaxFixedArray = 1 << 24;
+constexpr std::size_t kMaxValues = std::size_t{1} << 20;  // per message (uint8 arrays: one)
 
 // Wire size of a builtin type; strings report their minimum (the length prefix).
 std::size_t BuiltinSize(const std::string& type) {
@@ -148,11 +149,15 @@ class Cursor {
 
 class Decoder {
  public:
-  // Values decoded at most: every value but an empty message takes at least a byte, so a
-  // real message stays far below; fixed arrays of empty messages (nested, each up to 2^24)
-  // would otherwise make a few bytes of definition decode to billions of values.
+  // Values decoded at most: two a byte (every value but an empty message takes at least a
+  // byte, so a real message stays far below; fixed arrays of empty messages, nested, each up
+  // to 2^24, would otherwise make a few bytes of definition decode to billions of values),
+  // and kMaxValues a message (a decoded value takes 40 to 72 bytes: a message of a
+  // decompressed chunk, itself up to 16384 times its bytes in the file, stays under 80 MB).
   Decoder(const MessageDefinition& def, Cursor* cursor)
-      : def_(def), in_(*cursor), budget_(2 * cursor->remaining() + 1024) {}
+      : def_(def),
+        in_(*cursor),
+        budget_(std::min<std::size_t>(2 * cursor->remaining() + 1024, kMaxValues)) {}
 
   RosValue Message(const std::string& type, const std::string& path, int depth) {
     if (depth > kMaxNesting) throw DecodeError("field '" + path + "': nesting too deep");
