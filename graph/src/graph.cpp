@@ -281,11 +281,12 @@ class Loader {
           Error(file, item.Mark(), "included file '" + path.string() + "' does not exist");
           continue;
         }
-        // A directory fails inside yaml-cpp with an exception of its own; /dev/zero or a pipe
-        // would be read forever.
+        // A directory fails inside yaml-cpp with an exception of its own; a named pipe (or
+        // /dev/stdin) would block the loader until someone writes to it.
         if (!std::filesystem::is_regular_file(status)) {
           Error(file, item.Mark(),
-                "included '" + path.string() + "' is not a regular file (a directory or device?)");
+                "included '" + path.string() +
+                    "' is not a regular file (a directory, device or pipe?)");
           continue;
         }
         YAML::Node included;
@@ -746,9 +747,10 @@ std::unique_ptr<Graph> LoadParsed(const std::string& text_or_path, bool is_file,
         throw GraphError({Diagnostic{text_or_path, 0, 0, "graph file does not exist"}});
       }
       if (!std::filesystem::is_regular_file(status)) {
-        throw GraphError({Diagnostic{text_or_path, 0, 0,
-                                     "not a regular file (a directory or device?): expected a "
-                                     "graph file"}});
+        throw GraphError(
+            {Diagnostic{text_or_path, 0, 0,
+                        "not a regular file (a directory, device or pipe?): expected a "
+                        "graph file"}});
       }
       root = YAML::LoadFile(text_or_path);
     } else {

@@ -86,7 +86,8 @@ if sel G3; then graph 'schema: 1\nthreads: 100000\ncomponents:\n  - {id: t, type
   run G3 nonzero "'threads' must be an integer in [1, 256]" "$draco" validate "$work/g.yaml"; fi
 if sel G4; then graph 'components:\n  - {id: t}\n'
   run G4 nonzero "missing 'schema: 1'" "$draco" validate "$work/g.yaml"; fi
-if sel G5; then graph 'schema: 1\ninclude: [/dev/zero]\ncomponents:\n  - {id: t, type: example.Ticker}\n'
+if sel G5; then mkfifo "$work/pipe.yaml"
+  graph "schema: 1\ninclude: [$work/pipe.yaml]\ncomponents:\n  - {id: t, type: example.Ticker}\n"
   run G5 nonzero "is not a regular file" "$draco" validate "$work/g.yaml"; fi
 if sel G6; then graph 'schema: 1\n[a]: 1\ncomponents:\n  - {id: t, type: example.Ticker}\n'
   run G6 nonzero "expected a name as key, got a list" "$draco" validate "$work/g.yaml"; fi

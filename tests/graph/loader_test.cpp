@@ -1,5 +1,7 @@
 // Graph loading and validation: every error names the file, the line and what was expected.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -264,14 +266,18 @@ TEST(Loader, MissingFile) {
 }
 
 // Found by fuzz_graph_loader (tests/fuzz): `include: [.]` made yaml-cpp read a directory, and
-// the std::ios_base::failure it threw escaped the loader (std::terminate). A device such as
-// /dev/zero would have been read forever.
+// the std::ios_base::failure it threw escaped the loader (std::terminate). A named pipe would
+// have blocked the loader until someone wrote to it.
 TEST(Loader, IncludeOfADirectoryOrDeviceIsAnError) {
-  for (const std::string target : {".", "/dev/zero"}) {
+  const std::string fifo = std::filesystem::temp_directory_path() /
+                           ("draco-loader-test-" + std::to_string(::getpid()) + ".fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& target : {std::string("."), std::string("/dev/zero"), fifo}) {
     const std::string yaml = "schema: 1\ninclude: [" + target +
                              "]\ncomponents:\n  - id: src\n    type: example.Ticker\n";
     ExpectOne(yaml, 2, "is not a regular file");
   }
+  std::filesystem::remove(fifo);
 }
 
 // Found by fuzz_graph_loader: a key that is a list or a mapping (`[a]: 1`) threw yaml-cpp's
