@@ -198,11 +198,16 @@ def mission_name(missions_dir, m):
 # Formatting
 
 
+def cell(c):
+    """A table cell: a | inside it (a regular expression in a command) escaped."""
+    return str(c).replace("|", "\\|")
+
+
 def fmt_table(header, rows, align=None):
     align = align or ["---"] * len(header)
     out = ["| " + " | ".join(header) + " |", "|" + "|".join(align) + "|"]
     for r in rows:
-        out.append("| " + " | ".join(str(c) for c in r) + " |")
+        out.append("| " + " | ".join(cell(c) for c in r) + " |")
     return out
 
 
@@ -346,8 +351,14 @@ class Page:
             names = " / ".join(r[0] for r in robots)
             bps = [float(r[idx["mean bps"]]) for r in robots]
             kbit = sum(float(r[idx["sent kbit"]]) for r in robots)
+            team_bps = f"{sum(bps):.0f}"
+            traffic = md_tables(section(self.report[m], "Traffic per robot"))
+            if traffic:
+                for r in traffic[0][1:]:
+                    if r[0] == "team":
+                        team_bps = r[3]
             self.w(f"- **{m}**, three robot daemons over DDS: team ATE {team} m ({names}; "
-                   f"local SLAM {local} m, dead reckoning {dr} m); link {sum(bps):.0f} bps "
+                   f"local SLAM {local} m, dead reckoning {dr} m); link {team_bps} bps "
                    f"for the team ({' / '.join(f'{b:.0f}' for b in bps)} bps per robot, "
                    f"{kbit:.0f} kbit in all; the modem's budget is 62,500 bps, the goal "
                    f"2,000 bps per robot).")
@@ -492,6 +503,9 @@ class Page:
                 self.w(f"{m}:", "", *t, "")
             else:
                 self.missing(f"{m} Table II", f"eval-{m}-dds")
+        self.w("\"loops accepted\" is the size of the accepted set the step ends with (the "
+               "consistency filter decides the whole set again each step), not loops newly "
+               "accepted in it; \"PGO steps\" counts the steps that ran the two-step PGO.", "")
 
     def table3(self):
         self.w("## Table III: ATE, two-step against full PGO, PCM against GCM", "",
@@ -614,8 +628,16 @@ class Page:
             match = read_csv(os.path.join(self.out, m, "frontend", "matching.csv"))
             if match:
                 right = sum(1 for r in match if r.get("correct") == "1")
-                self.w(f"Object-graph matching (`matching.csv`): {right} of {len(match)} ordered "
-                       "pairs matched right (within 2 m and 10 deg).", "")
+                out = [(r["own"], r["teammate"], r["shared_objects"], r["status"], r["inliers"],
+                        f"{f2(r['err_m'])} / {f2(r['err_deg'])}", r["registrations"])
+                       for r in match]
+                self.w(f"Object-graph matching per ordered pair (`matching.csv`; right: within "
+                       f"2 m and 10 deg of the true map-to-map transform; {right} of "
+                       f"{len(match)} pairs matched right; `chained`: placed through a teammate "
+                       "that matches both, as the running team shares its transforms):", "",
+                       *fmt_table(["own", "teammate", "true shared objects", "status",
+                                   "inliers", "error m / deg", "registrations"], out,
+                                  ["---", "---", "---:", "---", "---:", "---:", "---:"]), "")
             possible = read_csv(os.path.join(self.out, m, "frontend", "possible_loops.csv"))
             if possible:
                 out = [(r["own"], r["teammate"], r["possible"], r["pairs_tested"],
@@ -689,8 +711,7 @@ class Page:
             try:
                 ctx = json.loads(data).get("context", {})
                 self.w(f"Benchmark context: {ctx.get('num_cpus', '?')} CPUs at "
-                       f"{ctx.get('mhz_per_cpu', '?')} MHz, library build "
-                       f"{ctx.get('library_build_type', '?')}, load average "
+                       f"{ctx.get('mhz_per_cpu', '?')} MHz, load average "
                        f"{', '.join(f'{x:.2f}' for x in ctx.get('load_avg', []))} when "
                        "`objects_bench` started.", "")
             except ValueError:
