@@ -5,7 +5,7 @@
 
 Reads only files the apps write (docs/results.md lists them): OUT/machine.txt and
 OUT/steps.tsv (results.sh's record), per mission OUT/<mission>/fleet/fleet_report.md,
-fleet/dds/report.md, fleet/inproc/report.md, frontend/precision.csv, frontend/matching.csv,
+fleet/dds/report.md, local-slam/report.md, frontend/precision.csv, frontend/matching.csv,
 frontend/possible_loops.csv, team/table3.csv, team/team_loops.csv, logs/sizes-<mission>.out (the
 table draco-fleet-sizes prints), and OUT/bench/*.json (Google Benchmark JSON). Standard
 library only.
@@ -335,33 +335,37 @@ class Page:
                "differ from the in-process run's by the timing of teammates' messages (the "
                "\"DDS against in-process\" tables).", "")
 
+    def team_headline(self, m):
+        """The running team (DDS) of mission m in a few numbers, or None."""
+        rows = self.fleet_robot_rows(m)
+        if not rows:
+            return None
+        idx = {h: i for i, h in enumerate(rows[0])}
+        robots = rows[1:]
+        col = lambda name: " / ".join(r[idx[name]] for r in robots)  # noqa: E731
+        bps = [float(r[idx["mean bps"]]) for r in robots]
+        team_bps = f"{sum(bps):.0f}"
+        traffic = md_tables(section(self.report[m], "Traffic per robot"))
+        if traffic:
+            for r in traffic[0][1:]:
+                if r[0] == "team":
+                    team_bps = r[3]
+        return {"names": " / ".join(r[0] for r in robots), "team": col("team ATE m"),
+                "local": col("local ATE m"), "dr": col("DR ATE m"),
+                "bps": " / ".join(f"{b:.0f}" for b in bps), "team_bps": team_bps,
+                "kbit": f"{sum(float(r[idx['sent kbit']]) for r in robots):,.0f}"}
+
     def headline(self):
         self.w("## Headline", "")
         for m in MISSIONS:
-            rows = self.fleet_robot_rows(m)
-            if not rows:
+            h = self.team_headline(m)
+            if not h:
                 self.missing(f"{m} running team", f"fleet-{m}")
                 continue
-            hdr = rows[0]
-            idx = {h: i for i, h in enumerate(hdr)}
-            robots = rows[1:]
-            team = " / ".join(r[idx["team ATE m"]] for r in robots)
-            local = " / ".join(r[idx["local ATE m"]] for r in robots)
-            dr = " / ".join(r[idx["DR ATE m"]] for r in robots)
-            names = " / ".join(r[0] for r in robots)
-            bps = [float(r[idx["mean bps"]]) for r in robots]
-            kbit = sum(float(r[idx["sent kbit"]]) for r in robots)
-            team_bps = f"{sum(bps):.0f}"
-            traffic = md_tables(section(self.report[m], "Traffic per robot"))
-            if traffic:
-                for r in traffic[0][1:]:
-                    if r[0] == "team":
-                        team_bps = r[3]
-            self.w(f"- **{m}**, three robot daemons over DDS: team ATE {team} m ({names}; "
-                   f"local SLAM {local} m, dead reckoning {dr} m); link {team_bps} bps "
-                   f"for the team ({' / '.join(f'{b:.0f}' for b in bps)} bps per robot, "
-                   f"{kbit:.0f} kbit in all; the modem's budget is 62,500 bps, the goal "
-                   f"2,000 bps per robot).")
+            self.w(f"- **{m}**, three robot daemons over DDS: team ATE {h['team']} m "
+                   f"({h['names']}; local SLAM {h['local']} m, dead reckoning {h['dr']} m); link "
+                   f"{h['team_bps']} bps for the team ({h['bps']} bps per robot, {h['kbit']} kbit "
+                   "in all; the modem's budget is 62,500 bps, the goal 2,000 bps per robot).")
         t3 = {m: read_csv(os.path.join(self.out, m, "team", "table3.csv")) for m in MISSIONS}
         parts = []
         for m in MISSIONS:
@@ -430,6 +434,22 @@ class Page:
             t = self.team_report_table(m, "Accuracy per robot")
             if t:
                 self.w("Local SLAM per robot inside the team (DDS run):", "", *t, "")
+
+    def local_slam(self):
+        self.w("## Local SLAM alone", "",
+               "`draco-local-slam MISSION`: every robot alone through "
+               "`config/graphs/local-slam.yaml` (docs/local-slam.md), evaluated by `draco-eval`: "
+               "ATE RMSE of the keyframe positions after SE(2) alignment to ground truth, RPE "
+               "between consecutive keyframes, DR = dead reckoning at the same keyframe times.",
+               "")
+        for m in MISSIONS:
+            text = read_text(os.path.join(self.out, m, "local-slam", "report.md"))
+            t = table_lines(section(text, "Accuracy per robot"))
+            if not t:
+                self.missing(f"{m} local SLAM alone", f"local-slam-{m}")
+                continue
+            self.w(f"{m}: {step_note(self.steps, f'local-slam-{m}')}, then "
+                   f"{step_note(self.steps, f'eval-{m}-local-slam')}", "", *t, "")
 
     def table1(self):
         self.w("## Table I: runtime", "",
@@ -737,10 +757,23 @@ class Page:
                 self.w(f"- {p}")
             self.w("")
 
+    def readme_block(self):
+        """The README's headline: the marina team in three lines."""
+        h = self.team_headline("marina")
+        if not h:
+            return "The marina team run failed: see docs/figures.md.\n"
+        text = (f"The marina mission, three robot daemons over DDS, at commit "
+                f"`{self.machine.get('commit', '?')}`: team ATE {h['team']} m for {h['names']} "
+                f"(local SLAM {h['local']} m, dead reckoning {h['dr']} m); the link carried "
+                f"{h['kbit']} kbit, {h['team_bps']} bps for the team ({h['bps']} bps per robot; "
+                "goal 2,000 bps per robot). Every table: docs/figures.md.")
+        return "\n".join(textwrap.wrap(text, 95, break_on_hyphens=False)) + "\n"
+
     def compose(self):
         self.header()
         self.headline()
         self.running_team()
+        self.local_slam()
         self.table1()
         self.table2()
         self.table3()
@@ -767,15 +800,28 @@ def main():
     ap.add_argument("out", help="the folder scripts/results.sh wrote (--out)")
     ap.add_argument("--page", default="docs/figures.md")
     ap.add_argument("--missions", default="runs/missions")
+    ap.add_argument("--readme", help="also rewrite this file's headline block (README.md)")
     a = ap.parse_args()
     if not os.path.isfile(os.path.join(a.out, "steps.tsv")):
         sys.exit(f"figures.py: {a.out} has no steps.tsv: not a scripts/results.sh folder")
-    text = Page(a.out, a.missions, a.page).compose()
+    page = Page(a.out, a.missions, a.page)
+    text = page.compose()
     tmp = a.page + ".partial"
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
     os.replace(tmp, a.page)
     print(f"figures.py: wrote {a.page}")
+    if a.readme:
+        readme = read_text(a.readme)
+        begin, end = "<!-- headline: scripts/results.sh writes this block -->", "<!-- /headline -->"
+        if readme is None or begin not in readme or end not in readme:
+            sys.exit(f"figures.py: {a.readme} has no headline block ({begin} ... {end})")
+        head, rest = readme.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        with open(a.readme + ".partial", "w", encoding="utf-8") as f:
+            f.write(head + begin + "\n" + page.readme_block() + end + tail)
+        os.replace(a.readme + ".partial", a.readme)
+        print(f"figures.py: updated the headline of {a.readme}")
 
 
 if __name__ == "__main__":

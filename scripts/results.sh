@@ -9,15 +9,18 @@
 #                   (about 2.7 GB and a minute each)
 #   --out DIR       run folders, logs and benchmark JSON (default runs/results); emptied first
 #   --page FILE     the page to write (default docs/figures.md)
-#   --quick         skip the slow parts: the in-process team's report, the ground-truth seeded
+#   --quick         skip the slow parts: the in-process team's report, local SLAM alone
+#                   (draco-local-slam), the ground-truth seeded
 #                   "possible loops" of draco-frontend-eval, sonar frames in the reports, the
 #                   slowest benchmark cases and benchmark repetitions
 #
 # Per mission: draco-fleet --mode both (the running team, DDS and in-process), draco-eval on
-# both modes (report.md: Table I-IV layouts, Fig. 3 of the running team), draco-frontend-eval
+# both modes (report.md: Table I-IV layouts, Fig. 3 of the running team), draco-local-slam and
+# draco-eval on it (local SLAM alone), draco-frontend-eval
 # (Fig. 3), draco-team-eval on its cached local SLAM (Table III: two-step / full PGO x PCM /
 # GCM), draco-fleet-sizes (Table IV on the cached keyframes); then the Google Benchmarks of
-# docs/benchmarks.md; then scripts/figures.py composes the page from the run folders' files.
+# docs/benchmarks.md; then scripts/figures.py composes the page from the run folders' files and,
+# with the default --page, rewrites the headline block of README.md.
 # A failing step is recorded (exit code on the page) and the others still run.
 # Environment: BUILD_DIR (default build; configured and built with scripts/setup.sh build when
 # it has no CMakeCache.txt, else only the needed targets are brought up to date), JOBS (build
@@ -47,7 +50,7 @@ out=${out%/}
 log() { printf '[results] %s\n' "$*" >&2; }
 
 # ---- build
-targets=(draco-sim draco-fleet draco-robot draco-eval draco-frontend-eval draco-team-eval
+targets=(draco-sim draco-fleet draco-robot draco-local-slam draco-eval draco-frontend-eval draco-team-eval
          draco-fleet-sizes objects_bench cfar_bench icp_bench pose_graph_bench
          consistency_bench registration_bench team_bench)
 if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
@@ -133,6 +136,9 @@ for m in marina airplane; do
   run_step "eval-$m-dds" "$m" "$B/apps/eval/draco-eval" "$R/fleet/dds" --mission "$M" "${frames[@]}"
   if [ "$quick" = 0 ]; then
     run_step "eval-$m-inproc" "$m" "$B/apps/eval/draco-eval" "$R/fleet/inproc" --mission "$M" --frames 0
+    # Local SLAM alone, every robot (docs/local-slam.md "Accuracy").
+    run_step "local-slam-$m" "$m" "$B/apps/local_slam/draco-local-slam" "$M" --out "$R/local-slam"
+    run_step "eval-$m-local-slam" "$m" "$B/apps/eval/draco-eval" "$R/local-slam"
   fi
   # Fig. 3 offline: every robot's local SLAM (cached in frontend/slam), matching, registration.
   fe=()
@@ -207,5 +213,7 @@ EOF
 fi
 
 # ---- the page
-python3 scripts/figures.py "$out" --page "$page" --missions "$missions" || exit 1
+readme=()
+[ "$page" = docs/figures.md ] && readme=(--readme README.md)
+python3 scripts/figures.py "$out" --page "$page" --missions "$missions" "${readme[@]}" || exit 1
 log "wrote $page ($(( $(date +%s) - t_start )) s)"
