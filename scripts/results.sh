@@ -10,17 +10,17 @@
 #   --out DIR       run folders, logs and benchmark JSON (default runs/results); emptied first
 #   --page FILE     the page to write (default docs/figures.md)
 #   --quick         skip the slow parts: the in-process team's report, local SLAM alone
-#                   (draco-local-slam), the ground-truth seeded
-#                   "possible loops" of draco-frontend-eval, sonar frames in the reports, the
-#                   slowest benchmark cases and benchmark repetitions
+#                   (draco-local-slam), the ground-truth seeded "possible loops" of
+#                   draco-frontend-eval, sonar frames in the reports, the slowest benchmark
+#                   cases and benchmark repetitions
 #
 # Per mission: draco-fleet --mode both (the running team, DDS and in-process), draco-eval on
 # both modes (report.md: Table I-IV layouts, Fig. 3 of the running team), draco-local-slam and
-# draco-eval on it (local SLAM alone), draco-frontend-eval
-# (Fig. 3), draco-team-eval on its cached local SLAM (Table III: two-step / full PGO x PCM /
-# GCM), draco-fleet-sizes (Table IV on the cached keyframes); then the Google Benchmarks of
-# docs/benchmarks.md; then scripts/figures.py composes the page from the run folders' files and,
-# with the default --page, rewrites the headline block of README.md.
+# draco-eval on it (local SLAM alone), draco-frontend-eval (Fig. 3), draco-team-eval on its
+# cached local SLAM (Table III: two-step / full PGO x PCM / GCM), draco-fleet-sizes (Table IV
+# on the cached keyframes); then the Google Benchmarks of docs/benchmarks.md; then
+# scripts/figures.py composes the page from the run folders' files and, with the default
+# --page, rewrites the headline block of README.md.
 # A failing step is recorded (exit code on the page) and the others still run.
 # Environment: BUILD_DIR (default build; configured and built with scripts/setup.sh build when
 # it has no CMakeCache.txt, else only the needed targets are brought up to date), JOBS (build
@@ -38,7 +38,7 @@ while [ $# -gt 0 ]; do
     --out) out=$2; shift 2 ;;
     --page) page=$2; shift 2 ;;
     --quick) quick=1; shift ;;
-    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
     *) echo "results.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -50,8 +50,8 @@ out=${out%/}
 log() { printf '[results] %s\n' "$*" >&2; }
 
 # ---- build
-targets=(draco-sim draco-fleet draco-robot draco-local-slam draco-eval draco-frontend-eval draco-team-eval
-         draco-fleet-sizes objects_bench cfar_bench icp_bench pose_graph_bench
+targets=(draco-sim draco-fleet draco-robot draco-local-slam draco-eval draco-frontend-eval
+         draco-team-eval draco-fleet-sizes objects_bench cfar_bench icp_bench pose_graph_bench
          consistency_bench registration_bench team_bench)
 if [ ! -f "$BUILD_DIR/CMakeCache.txt" ]; then
   log "no build in $BUILD_DIR: scripts/setup.sh build"
@@ -133,9 +133,11 @@ for m in marina airplane; do
   run_step "fleet-$m" "$m" "$B/apps/fleet/draco-fleet" "$M" --mode both --out "$R/fleet" \
     --set "link.dds_topic_prefix=results$$_"
   # Its evaluation: report.md with the Table I-IV layouts, Fig. 3 of the running team, figures.
-  run_step "eval-$m-dds" "$m" "$B/apps/eval/draco-eval" "$R/fleet/dds" --mission "$M" "${frames[@]}"
+  run_step "eval-$m-dds" "$m" "$B/apps/eval/draco-eval" "$R/fleet/dds" --mission "$M" \
+    "${frames[@]}"
   if [ "$quick" = 0 ]; then
-    run_step "eval-$m-inproc" "$m" "$B/apps/eval/draco-eval" "$R/fleet/inproc" --mission "$M" --frames 0
+    run_step "eval-$m-inproc" "$m" "$B/apps/eval/draco-eval" "$R/fleet/inproc" \
+      --mission "$M" --frames 0
     # Local SLAM alone, every robot (docs/local-slam.md "Accuracy").
     run_step "local-slam-$m" "$m" "$B/apps/local_slam/draco-local-slam" "$M" --out "$R/local-slam"
     run_step "eval-$m-local-slam" "$m" "$B/apps/eval/draco-eval" "$R/local-slam"
@@ -143,7 +145,8 @@ for m in marina airplane; do
   # Fig. 3 offline: every robot's local SLAM (cached in frontend/slam), matching, registration.
   fe=()
   [ "$quick" = 1 ] && fe=(--no-possible-loops)
-  run_step "frontend-$m" "$m" "$B/apps/frontend_eval/draco-frontend-eval" "$M" --out "$R/frontend" "${fe[@]}"
+  run_step "frontend-$m" "$m" "$B/apps/frontend_eval/draco-frontend-eval" "$M" \
+    --out "$R/frontend" "${fe[@]}"
   # Table III offline on the same local SLAM (its own folder; slam/ is the frontend's cache).
   mkdir -p "$R/team"
   ln -sfn ../frontend/slam "$R/team/slam"
@@ -154,7 +157,8 @@ for m in marina airplane; do
   if [ ${#kfs[@]} -gt 0 ]; then
     run_step "sizes-$m" "$m" "$B/apps/fleet_sizes/draco-fleet-sizes" "${kfs[@]}"
   else
-    printf 'sizes-%s\t%s\t0\t1\t(no keyframe cache: draco-frontend-eval failed)\n' "$m" "$m" >>"$steps"
+    printf 'sizes-%s\t%s\t0\t1\t(no keyframe cache: draco-frontend-eval failed)\n' "$m" "$m" \
+      >>"$steps"
   fi
 done
 
@@ -174,15 +178,16 @@ if [ "$quick" = 1 ]; then
   bench icp tests/icp/icp_bench
   bench pose_graph tests/pose_graph/pose_graph_bench \
     'Solve/(intel|manhattan).g2o/(baseline|default/)|KeyframeAt1000|Incremental1000/update'
-  bench consistency tests/consistency/consistency_bench '^BM_(DecisionBatch|DecisionIncremental|CliqueExact)/'
+  bench consistency tests/consistency/consistency_bench \
+    '^BM_(DecisionBatch|DecisionIncremental|CliqueExact)/'
   bench registration tests/registration/registration_bench
   bench team tests/team/team_bench
 else
   bench objects tests/objects/objects_bench
   bench cfar tests/cfar/cfar_bench
   bench icp tests/icp/icp_bench
-  bench pose_graph tests/pose_graph/pose_graph_bench \
-    'Solve/(intel|manhattan|city10000).g2o/(baseline|default/|default_suitesparse|default_1thread)|Incremental1000|KeyframeAt1000'
+  pg='Solve/(intel|manhattan|city10000).g2o/(baseline|default/|default_suitesparse|default_1thread)'
+  bench pose_graph tests/pose_graph/pose_graph_bench "$pg|Incremental1000|KeyframeAt1000"
   bench consistency tests/consistency/consistency_bench
   bench registration tests/registration/registration_bench
   bench team tests/team/team_bench
