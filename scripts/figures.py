@@ -281,6 +281,9 @@ class Page:
 
     def missing(self, what, step):
         s = self.steps.get(step)
+        if not s and self.machine.get("quick") == "1":
+            self.w(f"*Skipped by `--quick`: {what}.*", "")
+            return
         why = "did not run" if not s else (
             f"exit {s['exit']}" if s["exit"] != "0" else "wrote no such file")
         self.problems.append(f"{what}: `{step}` {why}")
@@ -726,6 +729,14 @@ class Page:
                              human_time(e["real_time"], unit), ", ".join(counters)))
             self.w(*fmt_table(["benchmark", "CPU", "wall", "counters"], rows,
                               ["---", "---:", "---:", "---"]), "")
+        sims = [self.steps[f"sim-{m}"] for m in MISSIONS if f"sim-{m}" in self.steps]
+        if sims:
+            self.w("Simulator (docs/benchmarks.md, \"Simulator\"; with pictures, so a few "
+                   "seconds over `--no-pictures`): " + "; ".join(
+                       f"`{s['command']}` {s['wall_s']} s wall" for s in sims) + ".", "")
+        else:
+            self.w("Simulator: not timed here (the recorded missions were reused; "
+                   "docs/benchmarks.md, \"Simulator\", has its figures and command).", "")
         data = read_text(os.path.join(self.out, "bench", "objects.json"))
         if data:
             try:
