@@ -302,7 +302,9 @@ class ThreadedEngine {
       const auto now = std::chrono::steady_clock::now();
       if (std::chrono::duration<double>(now - last).count() < options_.progress_period_s) continue;
       last = now;
-      options_.progress(RunProgress{Time{clock_ns_.load()}, end});
+      // The paced mission clock runs on with the wall clock past the last event: never
+      // report beyond the expected end.
+      options_.progress(RunProgress{std::min(Time{clock_ns_.load()}, end), end});
     }
   }
 
