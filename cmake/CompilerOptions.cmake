@@ -16,10 +16,31 @@ target_compile_options(draco_options INTERFACE
 if(DRACO_WERROR)
   target_compile_options(draco_options INTERFACE -Werror)
 endif()
-if(DRACO_SANITIZE)
-  target_compile_options(draco_options INTERFACE
+# Sanitizers apply to every target of the project (libraries, apps, tests, generated IDL
+# code), so they are directory-wide options rather than draco_options.
+string(TOLOWER "${DRACO_SANITIZE}" draco_sanitize)
+if(draco_sanitize STREQUAL "thread")
+  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
+  add_link_options(-fsanitize=thread)
+elseif(draco_sanitize MATCHES "^(on|yes|true|1|address)$")
+  add_compile_options(
     -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
-  target_link_options(draco_options INTERFACE -fsanitize=address,undefined)
+  add_link_options(-fsanitize=address,undefined -fno-sanitize-recover=all)
+  # Eigen's aligned_malloc/aligned_free must match the libraries that hand Eigen heap memory
+  # to draco (libceres: ceres::GradientChecker::ProbeResults, Problem::Evaluate's matrices).
+  # Debian builds them without ASan, where Eigen 3.4 (Eigen/src/Core/util/Memory.h) uses plain
+  # malloc/free because glibc's malloc is 16-byte aligned. Under ASan, Memory.h drops that path
+  # (`! defined(__SANITIZE_ADDRESS__)`) and uses handmade_aligned_malloc, which stores the
+  # original pointer in the 8 bytes before the block: freeing a libceres matrix from draco
+  # then reads before a plain malloc block (heap-buffer-overflow), and a matrix draco
+  # allocates would reach libceres's free() with an offset pointer. ASan's malloc is 16-byte
+  # aligned too (checked by tests/sanitize), so the glibc path is right here as well:
+  # EIGEN_MALLOC_ALREADY_ALIGNED=1 gives the same allocator as the libraries. It holds only
+  # while EIGEN_DEFAULT_ALIGN_BYTES is 16 (no -mavx / -march=native), which tests/sanitize
+  # also asserts at compile time.
+  add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
+elseif(NOT draco_sanitize MATCHES "^(off|no|false|0|)$")
+  message(FATAL_ERROR "DRACO_SANITIZE=${DRACO_SANITIZE}: use OFF, ON/address or thread")
 endif()
 
 # draco_add_library(name SOURCES ... [DEPS ...])

@@ -207,6 +207,16 @@ class Loader {
   std::vector<Diagnostic>& diagnostics() { return diagnostics_; }
 
  private:
+  // A mapping key as text; false (and a diagnostic) when it is a list, a mapping or empty.
+  bool KeyText(const std::string& file, const YAML::Node& key, std::string* text) {
+    if (key.IsScalar()) {
+      *text = key.Scalar();
+      return true;
+    }
+    Error(file, key.Mark(), "expected a name as key, got " + Scalar(key));
+    return false;
+  }
+
   void ReadDocument(const YAML::Node& root, const std::string& file, const std::string& base_dir,
                     bool is_root, std::vector<RawComponent>* raw) {
     if (!root.IsMap()) {
@@ -220,7 +230,8 @@ class Loader {
     static const std::vector<std::string>& kIncludedKeys = kRootKeys;
     const auto& allowed = is_root ? kRootKeys : kIncludedKeys;
     for (const auto& kv : root) {
-      const std::string key = kv.first.as<std::string>();
+      std::string key;
+      if (!KeyText(file, kv.first, &key)) continue;
       if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
         Error(file, kv.first.Mark(),
               "unknown key '" + key + "' in " + (is_root ? "a graph" : "an included graph") + "; " +
@@ -255,14 +266,27 @@ class Loader {
         }
         const auto path =
             (std::filesystem::path(base_dir) / item.as<std::string>()).lexically_normal();
-        const std::string canonical = std::filesystem::weakly_canonical(path).string();
+        // error_code forms: a name the file system refuses (too long, not a folder) is a
+        // diagnostic like a missing file, never an exception.
+        std::error_code ec;
+        std::string canonical = std::filesystem::weakly_canonical(path, ec).string();
+        if (ec) canonical = path.string();
         if (std::find(include_stack_.begin(), include_stack_.end(), canonical) !=
             include_stack_.end()) {
           Error(file, item.Mark(), "include cycle through '" + path.string() + "'");
           continue;
         }
-        if (!std::filesystem::exists(path)) {
+        const auto status = std::filesystem::status(path, ec);
+        if (!std::filesystem::exists(status)) {
           Error(file, item.Mark(), "included file '" + path.string() + "' does not exist");
+          continue;
+        }
+        // A directory fails inside yaml-cpp with an exception of its own; a named pipe (or
+        // /dev/stdin) would block the loader until someone writes to it.
+        if (!std::filesystem::is_regular_file(status)) {
+          Error(file, item.Mark(),
+                "included '" + path.string() +
+                    "' is not a regular file (a directory, device or pipe?)");
           continue;
         }
         YAML::Node included;
@@ -328,7 +352,8 @@ class Loader {
     }
     static const std::vector<std::string> kKeys = {"id", "type", "params", "inputs", "doc"};
     for (const auto& kv : c) {
-      const std::string key = kv.first.as<std::string>();
+      std::string key;
+      if (!KeyText(rc.file, kv.first, &key)) continue;
       if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end()) {
         Error(rc.file, kv.first.Mark(),
               "unknown key '" + key + "' in a component; " + Expected(kKeys, key));
@@ -371,7 +396,10 @@ class Loader {
         Error(rc.file, params.Mark(), "'params' must be a mapping of name: value");
       } else {
         for (const auto& kv : params) {
-          SetParam(*node, kv.first.as<std::string>(), kv.first.Mark(), kv.second, rc.file);
+          std::string name;
+          if (KeyText(rc.file, kv.first, &name)) {
+            SetParam(*node, name, kv.first.Mark(), kv.second, rc.file);
+          }
         }
       }
     }
@@ -387,7 +415,8 @@ class Loader {
 
   void ReadInput(Node& node, const YAML::Node& key, const YAML::Node& value,
                  const std::string& file) {
-    const std::string port = key.as<std::string>();
+    std::string port;
+    if (!KeyText(file, key, &port)) return;
     if (node.FindInput(port) == nullptr) {
       std::vector<std::string> names;
       for (const auto& p : node.inputs) names.push_back(p->name());
@@ -712,8 +741,16 @@ std::unique_ptr<Graph> LoadParsed(const std::string& text_or_path, bool is_file,
   YAML::Node root;
   try {
     if (is_file) {
-      if (!std::filesystem::exists(text_or_path)) {
+      std::error_code ec;
+      const auto status = std::filesystem::status(text_or_path, ec);
+      if (!std::filesystem::exists(status)) {
         throw GraphError({Diagnostic{text_or_path, 0, 0, "graph file does not exist"}});
+      }
+      if (!std::filesystem::is_regular_file(status)) {
+        throw GraphError(
+            {Diagnostic{text_or_path, 0, 0,
+                        "not a regular file (a directory, device or pipe?): expected a "
+                        "graph file"}});
       }
       root = YAML::LoadFile(text_or_path);
     } else {

@@ -993,9 +993,9 @@ TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
 // A 5 x 5 grid of piles 4 m apart looks the same turned by 90, 180 or 270 deg about its centre.
 // Robot A's keyframes 0-6 along x image it; robot B, whose map frame is T_A_B in A's, sends one
 // scan of it. With neither map's absolute heading the registration ambiguity test finds the
-// turned fits and refuses the registration; with both headings known the compass excludes the
-// turns and the registration is a candidate; with headings that contradict the guess the
-// registration is refused as a heading mismatch.
+// turned fits and refuses the registration (and by default also with them); with both headings
+// known and headings_prune_turns the compass excludes the turns and the registration is a
+// candidate; with headings that contradict the guess the registration is refused.
 struct GridExchange {
   static constexpr double kGap = 0.5236;
   Pose2 T_A_B{5.0, 3.0, 0.3};
@@ -1017,12 +1017,13 @@ struct GridExchange {
     return out;
   }
   // Runs one exchange step; returns the configured window's registration status.
-  std::pair<reg::RegistrationStatus, std::vector<msgs::InterRobotLoop>> Run(double own_heading,
-                                                                            double mate_heading) {
+  std::pair<reg::RegistrationStatus, std::vector<msgs::InterRobotLoop>> Run(
+      double own_heading, double mate_heading, bool prune_turns = true) {
     ScanExchangeStageOptions o;
     o.robot_id = kA;
     o.log_windows = {};
     o.max_heading_gap_rad = kGap;
+    o.headings_prune_turns = prune_turns;
     ScanExchangeStage stage(o);
     msgs::KeyframeTrajectory traj;
     msgs::ObjectMap own;
@@ -1081,6 +1082,9 @@ TEST(ScanExchangeStage, HeadingsSettleATurnAmbiguityAndRefuseATurnedRegistration
   const auto unknown = grid.Run(0.2, nan);
   EXPECT_EQ(unknown.first, reg::RegistrationStatus::kAmbiguous);
   EXPECT_TRUE(unknown.second.empty());
+  // The default probes every turn whatever the headings: still ambiguous.
+  EXPECT_EQ(grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + 0.05, false).first,
+            reg::RegistrationStatus::kAmbiguous);
   const auto known = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + 0.05);  // 3 deg AHRS error
   EXPECT_EQ(known.first, reg::RegistrationStatus::kAccepted);
   EXPECT_EQ(known.second.size(), 7u);  // one per own keyframe near the scan
@@ -1091,7 +1095,10 @@ TEST(ScanExchangeStage, HeadingsSettleATurnAmbiguityAndRefuseATurnedRegistration
     EXPECT_LT(std::abs(e.yaw_rad), 0.005) << loop.own_keyframe;
   }
   // The compass says B's map is turned a further 45 deg: no turn is probed (each lands 45 deg
-  // or more from it), and the registration, turned as the guess, is refused.
+  // or more from it), and the registration, turned as the guess, is refused; by default the
+  // turn probes refuse it first, as ambiguous.
+  EXPECT_EQ(grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + std::numbers::pi / 4, false).first,
+            reg::RegistrationStatus::kAmbiguous);
   const auto turned = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + std::numbers::pi / 4);
   EXPECT_EQ(turned.first, reg::RegistrationStatus::kHeadingMismatch);
   EXPECT_TRUE(turned.second.empty());

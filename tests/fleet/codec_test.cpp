@@ -10,6 +10,8 @@
 #include <random>
 #include <string>
 
+#include "largest_allocation.hpp"
+
 namespace draco::fleet {
 namespace {
 
@@ -625,6 +627,26 @@ TEST(FleetCodec, TruncatedPayloadsRejectedAtEveryLength) {
   msgs::ScanReply d;
   EXPECT_NE(Decode({}, &d).error.find("scan_reply: truncated"), std::string::npos)
       << Decode({}, &d).error;
+}
+
+// Memory bound (docs/hardening.md): a count is checked against Bounds (20000 keyframes) and
+// then only sizes a vector as far as the bits left can hold values (one bit each at least).
+// Before, a 12-byte payload claiming 20000 poses reserved 160 kB per field.
+TEST(FleetCodec, CountsFromThePayloadDoNotSizeBuffersBeyondItsBits) {
+  msgs::KeyframePoses many;
+  many.header = Header();
+  for (int i = 0; i < 20000; ++i) many.poses.push_back({i, 0.5 * i, {0.01 * i, 0.0, 0.0}, 10});
+  auto bytes = Encode(many);
+  ASSERT_GT(bytes.size(), 1000u);
+  bytes.resize(12);  // the header and the count, then a few values
+  msgs::KeyframePoses d;
+  const test_support::LargestAllocation largest;
+  const auto res = Decode(bytes, &d);
+  EXPECT_FALSE(res);
+  EXPECT_NE(res.error.find("keyframe_poses: truncated"), std::string::npos) << res.error;
+  if (test_support::LargestAllocation::Supported()) {
+    EXPECT_LT(largest.bytes(), 1024u);
+  }
 }
 
 template <typename M>

@@ -186,6 +186,46 @@ TEST(LinkEndpoint, GarbageAndStrangersAreCountedNeverDelivered) {
   EXPECT_GE(team.links[0]->counters().rejected, 6u);
 }
 
+// Bad input (docs/hardening.md): a frame heard again (a replay, or a copy that took a longer
+// path) and a message older than one already delivered are rejected and counted, never
+// delivered twice or after their successor. Before, the same loop message was delivered twice.
+TEST(LinkEndpoint, ReplayedAndOutOfOrderMessagesAreCountedNotDelivered) {
+  const std::string bus = Bus();
+  Team team(bus);
+  auto impostor = middleware::MakeInProcessTransport(bus, 2);  // robot 2's id
+  team.Tick(0.0);
+  team.Tick(0.5);
+  const auto frame = [](std::uint32_t seq, double delivered_s) {
+    msgs::LoopClosureMessage m;
+    m.header = {.robot_id = 2, .incarnation = 102, .seq = seq, .time_s = 0.5};
+    m.target_robot = 0;
+    msgs::InterRobotLoop l;
+    l.id = seq;
+    l.own_robot = 2;
+    l.teammate_robot = 0;
+    l.covariance = {0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.001};
+    m.loops.push_back(l);
+    middleware::Frame f;
+    f.kind = static_cast<std::uint8_t>(msgs::FleetKind::kLoopClosures);
+    f.destination = 0;
+    f.seq = 1000 + seq;
+    f.delivered_s = delivered_s;
+    f.payload = Encode(m);
+    return f;
+  };
+  impostor->Send(frame(5, 0.8));
+  auto in = team.Tick(1.0);
+  ASSERT_EQ(in[0].loops.size(), 1u);
+  impostor->Send(frame(5, 1.3));  // the same message again
+  impostor->Send(frame(4, 1.3));  // an older one, late
+  impostor->Send(frame(6, 1.3));  // the next one
+  in = team.Tick(1.5);
+  ASSERT_EQ(in[0].loops.size(), 1u);
+  EXPECT_EQ(in[0].loops[0].header.seq, 6u);
+  EXPECT_EQ(team.links[0]->counters().replayed, 2u);
+  EXPECT_EQ(team.links[0]->teammates().at(2).frames_rejected, 2u);
+}
+
 TEST(LinkEndpoint, LockstepWaitsForALaggingTeammateAndStopsWaitingWhenItLeaves) {
   const std::string bus = Bus();
   LinkOptions a = Options(0, 1), b = Options(1, 2);

@@ -1,8 +1,11 @@
 // Graph loading and validation: every error names the file, the line and what was expected.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "draco/graph/graph.hpp"
 
@@ -259,6 +262,64 @@ TEST(Loader, MissingFile) {
     EXPECT_NE(
         std::string(e.what()).find("/nonexistent/graph.yaml: error: graph file does not exist"),
         std::string::npos);
+  }
+}
+
+// Found by fuzz_graph_loader (tests/fuzz): `include: [.]` made yaml-cpp read a directory, and
+// the std::ios_base::failure it threw escaped the loader (std::terminate). A named pipe would
+// have blocked the loader until someone wrote to it.
+TEST(Loader, IncludeOfADirectoryOrDeviceIsAnError) {
+  const std::string fifo = std::filesystem::temp_directory_path() /
+                           ("draco-loader-test-" + std::to_string(::getpid()) + ".fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& target : {std::string("."), std::string("/dev/zero"), fifo}) {
+    const std::string yaml = "schema: 1\ninclude: [" + target +
+                             "]\ncomponents:\n  - id: src\n    type: example.Ticker\n";
+    ExpectOne(yaml, 2, "is not a regular file");
+  }
+  std::filesystem::remove(fifo);
+}
+
+// Found by fuzz_graph_loader: a key that is a list or a mapping (`[a]: 1`) threw yaml-cpp's
+// TypedBadConversion out of the loader.
+TEST(Loader, KeysThatAreNotNamesAreErrors) {
+  ExpectOne("schema: 1\n[a]: 1\ncomponents: []\n", 2, "expected a name as key, got a list");
+  ExpectOne("schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n    {x: 1}: 2\n", 5,
+            "expected a name as key, got a mapping");
+  ExpectOne(
+      "schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n"
+      "    params: { [count]: 3 }\n",
+      5, "expected a name as key, got a list");
+  const auto d = Problems(
+      "schema: 1\ncomponents:\n  - id: src\n    type: example.Ticker\n  - id: scale\n"
+      "    type: example.Scale\n    inputs: { [in]: src/value }\n");
+  ASSERT_FALSE(d.empty());
+  EXPECT_EQ(d[0].line, 7) << d[0].ToString();
+  EXPECT_NE(d[0].message.find("expected a name as key, got a list"), std::string::npos);
+}
+
+// The input fuzz_graph_loader found (tests/data/fuzz/graph-include-directory.txt), as it was.
+TEST(Loader, FuzzFoundIncludeOfADirectory) {
+  const std::string dir = DRACO_SOURCE_DIR "/tests/data/fuzz";
+  std::ifstream in(dir + "/graph-include-directory.txt");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  try {
+    LoadGraphString(text, "fuzz.yaml", {}, dir);
+    FAIL() << "expected an error";
+  } catch (const GraphError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("fuzz.yaml:2:11: error: included '" + dir), std::string::npos) << what;
+    EXPECT_NE(what.find("is not a regular file"), std::string::npos) << what;
+  }
+}
+
+TEST(Loader, GraphFileThatIsADirectoryIsAnError) {
+  try {
+    LoadGraphFile(DRACO_GRAPH_TEST_DATA);
+    FAIL() << "expected an error";
+  } catch (const GraphError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
   }
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "draco/recording/recording.hpp"
+#include "largest_allocation.hpp"
 
 namespace draco::recording {
 namespace {
@@ -684,14 +685,76 @@ TEST_F(DamagedMissionTest, SonarUndecodableImage) {
     std::string bytes = ReadFile(Alpha("sonar.drs"));
     const std::size_t at = RecordOffsets(bytes)[0];
     const std::size_t image = at + 12 + 40 + 64 * 4 + 4;
-    bytes.replace(image, 8, "NOTIMAGE");
+    // PNG: inside the first chunk after the header (IHDR is 33 bytes with the signature).
+    const std::size_t damage = compression == ImageCompression::kPng ? image + 41 : image;
+    bytes.replace(damage, 8, "NOTIMAGE");
     FixCrc(bytes, at);
     WriteFileBytes(Alpha("sonar.drs"), bytes);
     ExpectError(ReadError(),
                 {"alpha/sonar.drs", "record 0",
                  compression == ImageCompression::kPng ? "PNG image does not decode to 48 x 64"
                                                        : "zlib image does not inflate to 48 x 64"});
+    if (compression == ImageCompression::kPng) {
+      bytes.replace(image, 8, "NOTIMAGE");
+      FixCrc(bytes, at);
+      WriteFileBytes(Alpha("sonar.drs"), bytes);
+      ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "no PNG signature and header"});
+    }
   }
+}
+
+// ---- memory bounds: sizes in a corrupt file are checked before anything is allocated ------
+// The reader allocates at most the file's size for a record and, for a compressed image, at
+// most 1032 times its bytes (deflate's largest expansion); docs/hardening.md.
+
+TEST_F(DamagedMissionTest, SonarRecordLongerThanTheFileIsRefusedBeforeAllocating) {
+  std::string bytes = ReadFile(Alpha("sonar.drs"));
+  const std::size_t at = RecordOffsets(bytes)[1];
+  SetU32(bytes, at + 8, 200u << 20);  // a 200 MiB payload claimed in a file of a few kB
+  WriteFileBytes(Alpha("sonar.drs"), bytes);
+  const test_support::LargestAllocation largest;
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 1",
+                            "truncated record: payload and CRC need 209715204 bytes, file has " +
+                                std::to_string(bytes.size() - at - 12)});
+  if (test_support::LargestAllocation::Supported()) {
+    EXPECT_LT(largest.bytes(), 1u << 20);
+  }
+}
+
+TEST_F(DamagedMissionTest, SonarImageLargerThanItsCompressedBytesCanHoldIsRefused) {
+  // 60000 x 64 pixels claimed for a zlib image of a few kB (deflate expands at most 1032:1).
+  std::string bytes = ReadFile(Alpha("sonar.drs"));
+  const std::size_t at = RecordOffsets(bytes)[0];
+  SetU32(bytes, at + 12 + 12, 60000);
+  FixCrc(bytes, at);
+  WriteFileBytes(Alpha("sonar.drs"), bytes);
+  const test_support::LargestAllocation largest;
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0",
+                            "compressed image cannot hold 60000 x 64", "at most 1032:1"});
+  if (test_support::LargestAllocation::Supported()) {
+    EXPECT_LT(largest.bytes(), 1u << 20);
+  }
+}
+
+TEST_F(DamagedMissionTest, SonarPngHeaderMustAnnounceThePingSize) {
+  {
+    MissionWriter mission =
+        MissionWriter::Create(dir_, TwoRobotMission(), {ImageCompression::kPng, 1});
+    std::mt19937 rng(1);
+    for (const char* name : {"alpha", "bravo"}) {
+      RobotWriter w = mission.OpenRobot(name);
+      WriteRobot(w, std::string(name) == "alpha", 2, rng);
+    }
+    mission.Close();
+  }
+  std::string bytes = ReadFile(Alpha("sonar.drs"));
+  const std::size_t at = RecordOffsets(bytes)[0];
+  SetU32(bytes, at + 12 + 12, 47);  // the record says 47 range bins, the PNG 48
+  FixCrc(bytes, at);
+  WriteFileBytes(Alpha("sonar.drs"), bytes);
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0",
+                            "PNG header announces 48 x 64 pixels of bit depth 8, colour type 0; "
+                            "expected 47 x 64 8-bit grey"});
 }
 
 TEST_F(DamagedMissionTest, SonarUnknownImageEncoding) {

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "draco/rosbag/bag_reader.hpp"
+#include "largest_allocation.hpp"
 #include "test_bags.hpp"
 
 namespace draco::rosbag {
@@ -244,6 +246,164 @@ TEST(BagReader, EveryTruncationIsAnErrorNeverACrash) {
       }
     }
   }
+}
+
+// ---- bad bags: every size in the file is checked before it is used (docs/hardening.md) ----
+
+std::string ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::uint32_t U32At(const std::string& s, std::size_t at) {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<std::uint8_t>(s[at + i]);
+  return v;
+}
+
+void SetU32At(std::string& s, std::size_t at, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) s[at + i] = static_cast<char>(v >> (8 * i));
+}
+
+// The top-level records of a bag (format 2.0): where each starts, its op, its data, and where
+// each header field's value is.
+struct RawRecord {
+  std::size_t pos = 0;
+  int op = -1;
+  std::size_t data_pos = 0;
+  std::size_t data_len = 0;
+  std::map<std::string, std::size_t> value_at;
+};
+
+std::vector<RawRecord> Records(const std::string& bag) {
+  std::vector<RawRecord> out;
+  std::size_t at = 13;  // "#ROSBAG V2.0\n"
+  while (at + 4 <= bag.size()) {
+    RawRecord r;
+    r.pos = at;
+    const std::size_t header_len = U32At(bag, at);
+    std::size_t f = at + 4;
+    while (f < at + 4 + header_len) {
+      const std::size_t len = U32At(bag, f);
+      const std::size_t eq = bag.find('=', f + 4);
+      const std::string name = bag.substr(f + 4, eq - f - 4);
+      r.value_at[name] = eq + 1;
+      if (name == "op") r.op = static_cast<std::uint8_t>(bag[eq + 1]);
+      f += 4 + len;
+    }
+    r.data_len = U32At(bag, f);
+    r.data_pos = f + 4;
+    out.push_back(r);
+    at = r.data_pos + r.data_len;
+  }
+  return out;
+}
+
+RawRecord First(const std::vector<RawRecord>& records, int op) {
+  for (const auto& r : records) {
+    if (r.op == op) return r;
+  }
+  ADD_FAILURE() << "no record with op " << op;
+  return {};
+}
+
+// The first index record of the connection on `topic`.
+RawRecord FirstIndexOf(const std::string& bag, const std::string& topic) {
+  const auto records = Records(bag);
+  for (const auto& c : records) {
+    if (c.op != 7) continue;
+    const std::size_t topic_at = c.value_at.at("topic");
+    if (bag.compare(topic_at, topic.size(), topic) != 0) continue;
+    const std::uint32_t conn = U32At(bag, c.value_at.at("conn"));
+    for (const auto& r : records) {
+      if (r.op == 4 && U32At(bag, r.value_at.at("conn")) == conn) return r;
+    }
+  }
+  ADD_FAILURE() << "no index record of " << topic;
+  return {};
+}
+
+std::string WriteBag(const std::string& name, const std::string& bytes) {
+  const std::string path = Bag(name);
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  return path;
+}
+
+// Found by fuzz_rosbag (tests/fuzz): with Debian's rosbag_storage this input (full.bag with one
+// index offset changed) made the reader read outside the chunk (SEGV in
+// rosbag::Bag::readHeaderFromBuffer). The index offset must point into its chunk.
+TEST(BagReader, FuzzFoundIndexOffsetOutsideTheChunkIsAnError) {
+  const std::string path =
+      DRACO_SOURCE_DIR "/tests/data/fuzz/rosbag-index-offset-outside-chunk.bag";
+  ExpectBagError([&] { ReadAll(path); }, {path, "index record at byte", "of a", "-byte chunk"});
+}
+
+TEST(BagReader, IndexOffsetsMustPointAtAMessageRecordOfTheirChunk) {
+  const std::string whole = ReadBytes(Bag("full.bag"));
+  const RawRecord index = FirstIndexOf(whole, "/sonar_oculus_node/M750d/ping");
+  RawRecord chunk;  // the chunk the index record follows
+  for (const auto& r : Records(whole)) {
+    if (r.op == 5 && r.pos < index.pos) chunk = r;
+  }
+  const std::uint32_t chunk_size = U32At(whole, chunk.value_at.at("size"));
+  // Past the chunk: refused when the bag is opened.
+  std::string bytes = whole;
+  SetU32At(bytes, index.data_pos + 8, chunk_size + 100);
+  ExpectBagError([&] { BagReader::Open(WriteBag("offset_past.bag", bytes)); },
+                 {"offset_past.bag", "message 0 at offset " + std::to_string(chunk_size + 100),
+                  "of a " + std::to_string(chunk_size) + "-byte chunk"});
+  // Inside the chunk but not at a record: the message read fails, naming the offset.
+  bytes = whole;
+  SetU32At(bytes, index.data_pos + 8, 7);
+  ExpectBagError([&] { ReadAll(WriteBag("offset_inside.bag", bytes)); },
+                 {"offset_inside.bag", "read error", "message at offset 7 of chunk at byte"});
+}
+
+TEST(BagReader, LengthsAndSizesInTheFileAreCheckedBeforeAllocating) {
+  // not_a_bag.bag: the format line, then noise whose first word, read as a header length,
+  // made rosbag_storage allocate 2 GB.
+  {
+    const test_support::LargestAllocation largest;
+    ExpectBagError([] { BagReader::Open(Bag("not_a_bag.bag")); },
+                   {"not_a_bag.bag", "bag header at byte 13", "does not fit"});
+    if (test_support::LargestAllocation::Supported()) {
+      EXPECT_LT(largest.bytes(), 1u << 20);
+    }
+  }
+  // An lz4 chunk claiming 2 GiB uncompressed.
+  std::string bytes = ReadBytes(Bag("lz4.bag"));
+  const RawRecord chunk = First(Records(bytes), 5);
+  SetU32At(bytes, chunk.value_at.at("size"), 0x7fffffff);
+  {
+    const std::string path = WriteBag("huge_chunk.bag", bytes);
+    const test_support::LargestAllocation largest;
+    ExpectBagError([&] { ReadAll(path); }, {"huge_chunk.bag", "lz4 chunk of",
+                                            "claims 2147483647 bytes uncompressed", "implausible"});
+    if (test_support::LargestAllocation::Supported()) {
+      EXPECT_LT(largest.bytes(), 1u << 20);
+    }
+  }
+  // A connection record whose data length runs past the end of the file.
+  bytes = ReadBytes(Bag("full.bag"));
+  const RawRecord connection = First(Records(bytes), 7);  // the index's first connection
+  SetU32At(bytes, connection.data_pos - 4, 0x40000000);
+  ExpectBagError([&] { BagReader::Open(WriteBag("long_connection.bag", bytes)); },
+                 {"long_connection.bag", "data of 1073741824 bytes", "left in the file"});
+}
+
+TEST(BagReader, ChunksMustNotOverlapOrRepeat) {
+  // Two chunk-info records naming the same chunk would read its index twice (memory
+  // quadratic in the file).
+  std::string bytes = ReadBytes(Bag("full.bag"));
+  std::vector<RawRecord> infos;
+  for (const auto& r : Records(bytes)) {
+    if (r.op == 6) infos.push_back(r);
+  }
+  ASSERT_GE(infos.size(), 2u);
+  const std::size_t first_pos = infos[0].value_at.at("chunk_pos");
+  bytes.replace(infos[1].value_at.at("chunk_pos"), 8, bytes.substr(first_pos, 8));
+  ExpectBagError([&] { BagReader::Open(WriteBag("repeated_chunk.bag", bytes)); },
+                 {"repeated_chunk.bag", "chunk info record", "is not after the previous chunk"});
 }
 
 }  // namespace

@@ -78,6 +78,87 @@ TEST(Convert, InconsistentPingsNameTheField) {
   expect_error(Msg({{"bearings", RosValue(RosValue::Array{})}}), "ping");
 }
 
+// A compressed ping (sensor_msgs/CompressedImage) of the given bytes, 3 beams.
+RosValue CompressedPing(RosValue::Bytes data) {
+  RosValue::Array bearings;
+  for (int b : {0, 1, 2}) bearings.emplace_back(static_cast<std::int64_t>(b));
+  return Msg({{"bearings", RosValue(std::move(bearings))},
+              {"range_resolution", Num(0.1)},
+              {"ping", Msg({{"format", RosValue(std::string("jpeg"))},
+                            {"data", RosValue(std::move(data))}})}});
+}
+
+// Memory bound (docs/hardening.md): the image header is read before OpenCV decodes, and an
+// image may announce at most 1032 pixels per byte (and 64 Mi): a 30-byte JPEG announcing
+// 60000 x 60000 pixels made OpenCV try to allocate 3.6 GB.
+TEST(Convert, CompressedImagesAnnouncingImplausibleSizesAreRefused) {
+  ConvertOptions options;
+  const auto error = [&](RosValue::Bytes data) {
+    try {
+      ToSonarPing(CompressedPing(std::move(data)), 0.0, options);
+    } catch (const DecodeError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  // SOI, then a baseline frame header (SOF0): 8 bits, 60000 x 60000, one component.
+  const RosValue::Bytes jpeg = {0xFF, 0xD8, 0xFF, 0xC0, 0x00, 0x0B, 0x08, 0xEA, 0x60,
+                                0xEA, 0x60, 0x01, 0x01, 0x11, 0x00, 0xFF, 0xD9};
+  std::string e = error(jpeg);
+  EXPECT_NE(e.find("field 'ping.data': the 17-byte image announces 60000 x 60000 pixels"),
+            std::string::npos)
+      << e;
+  // PNG: signature and an IHDR of 100000 x 100000, 8-bit grey.
+  RosValue::Bytes png = {0x89, 'P',  'N', 'G', '\r', '\n', 0x1a, '\n', 0,    0, 0,
+                         13,   'I',  'H', 'D', 'R',  0,    1,    0x86, 0xA0, 0, 1,
+                         0x86, 0xA0, 8,   0,   0,    0,    0,    0,    0,    0, 0};
+  e = error(png);
+  EXPECT_NE(e.find("announces 100000 x 100000 pixels"), std::string::npos) << e;
+  png[24] = 1;  // 1-bit pixels: 8 a byte before compression
+  e = error(png);
+  EXPECT_NE(e.find("PNG of bit depth 1"), std::string::npos) << e;
+  e = error({'G', 'I', 'F', '8', '9', 'a', 0, 0});
+  EXPECT_NE(e.find("neither JPEG nor PNG"), std::string::npos) << e;
+  e = error({0xFF, 0xD8, 0xFF, 0xDA, 0x00, 0x02});
+  EXPECT_NE(e.find("JPEG without a frame header"), std::string::npos) << e;
+}
+
+// Bad input (docs/hardening.md): NaN where a number is used, and a ping id beyond 32 bits,
+// are errors naming the field (before: a NaN depth was passed on; a float64 ping_id of 1e300
+// was undefined behaviour).
+TEST(Convert, NonFiniteValuesAreErrors) {
+  ConvertOptions options;
+  const double nan = std::nan("");
+  EXPECT_THROW(ToDepth(Msg({{"depth", Num(nan)}}), 0.0), DecodeError);
+  EXPECT_THROW(
+      ToGroundTruthPose(
+          Msg({{"pose",
+                Msg({{"position", Vec(1, nan, 3)},
+                     {"orientation",
+                      Msg({{"x", Num(0)}, {"y", Num(0)}, {"z", Num(0)}, {"w", Num(1)}})}})}}),
+          0.0, options),
+      DecodeError);
+  EXPECT_THROW(
+      ToAhrs(
+          Msg({{"orientation", Msg({{"x", Num(0)}, {"y", Num(0)}, {"z", Num(0)}, {"w", Num(1)}})},
+               {"angular_velocity", Vec(0, 0, nan)}}),
+          0.0, options),
+      DecodeError);
+  RosValue ping = Ping({0, 1, 2}, 255);
+  RosValue::Fields fields = *ping.AsFields();
+  for (auto& [name, value] : fields) {
+    if (name == "ping_id") value = Num(1e300);
+  }
+  try {
+    ToSonarPing(Msg(fields), 0.0, options);
+    ADD_FAILURE() << "no error";
+  } catch (const DecodeError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'ping_id'"), std::string::npos) << e.what();
+  }
+  // A NaN DVL velocity stays a sample marked invalid (documented), not an error.
+  EXPECT_FALSE(ToDvlVelocity(Msg({{"velocity", Vec(nan, 0, 0)}}), 0.0, options).valid);
+}
+
 TEST(Convert, ImuDvlDepthAndPose) {
   ConvertOptions options;
   // Quaternion of roll 0.1, pitch -0.2, yaw 1.0 (Z-Y-X).

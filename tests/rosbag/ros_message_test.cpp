@@ -1,4 +1,5 @@
 // MessageDefinition parsing and the definition-driven decoder, on hand-serialized bytes.
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -159,6 +160,49 @@ TEST(MessageDefinition, ImpossibleArrayLengthIsRejectedBeforeAllocating) {
   } catch (const DecodeError& e) {
     EXPECT_NE(std::string(e.what()).find("field 'values'"), std::string::npos) << e.what();
   }
+}
+
+// Memory bound (docs/hardening.md): fixed arrays of empty messages take no bytes, so a short
+// definition could make a few bytes decode to billions of values (16M x 16M here); the
+// decoder stops at two values per byte of the message (plus 1024).
+TEST(MessageDefinition, ArraysOfEmptyMessagesCannotMultiplyValues) {
+  const auto def = MessageDefinition::Parse(
+      "pkg/Bomb",
+      "Outer[16000000] outer\n=====\nMSG: pkg/Outer\nEmpty[16000000] inner\n"
+      "=====\nMSG: pkg/Empty\n");
+  const std::uint8_t data[8] = {};
+  try {
+    def.Decode(data, sizeof(data));
+    FAIL() << "no error";
+  } catch (const DecodeError& e) {
+    EXPECT_NE(std::string(e.what()).find("more values than a message of this size can hold"),
+              std::string::npos)
+        << e.what();
+  }
+  // At most 2^20 values a message, whatever its size (int8 arrays: 40 bytes a value).
+  const auto bytes8 = MessageDefinition::Parse("pkg/I", "int8[] a\n");
+  std::vector<std::uint8_t> big(4 + (2u << 20), 0);
+  big[2] = 0x20;  // 2^21 elements
+  EXPECT_THROW(bytes8.Decode(big.data(), big.size()), DecodeError);
+  // A real message of many small values is far below the bound.
+  const auto floats = MessageDefinition::Parse("pkg/F", "uint8[3000] a\nint16[1000] b\n");
+  const std::vector<std::uint8_t> bytes(5000, 1);
+  EXPECT_NO_THROW(floats.Decode(bytes.data(), bytes.size()));
+}
+
+// A long definition text resolves its types in n log n, not n^2: types named without their
+// package (resolved by their short name) were each compared with every type defined.
+TEST(MessageDefinition, ManyTypesResolveQuickly) {
+  std::string text = "T0 first\n";
+  for (int i = 0; i < 20000; ++i) {
+    text += "=====\nMSG: other" + std::to_string(i) + "/T" + std::to_string(i) + "\nT" +
+            std::to_string(i + 1) + " next\n";
+  }
+  text += "=====\nMSG: other20000/T20000\nfloat64 x\n";
+  const auto start = std::chrono::steady_clock::now();
+  const auto def = MessageDefinition::Parse("pkg/Root", text);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+  EXPECT_TRUE(def.HasField("first.next.next.next"));
 }
 
 TEST(MessageDefinition, CorruptBytesNeverCrash) {

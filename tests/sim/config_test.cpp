@@ -97,6 +97,79 @@ TEST(WorldConfig, BadValuesNameTheLine) {
   EXPECT_NE(msg.find("/nonexistent/world.yaml: cannot open file"), std::string::npos) << msg;
 }
 
+// Bad input (docs/hardening.md): counts that expand past the world's bound, segments without a
+// direction, NaN and infinity, and keys that are not names are errors naming the file and
+// line. Before, a pier 1e300 m long was undefined behaviour (a double beyond int cast to int;
+// fuzz_recording, UBSan), 10^8 piles per bent ran out of memory, a zero-length segment gave
+// NaN piles and .nan was accepted as a depth.
+TEST(WorldConfig, AbsurdSizesNaNAndBadKeysAreErrors) {
+  const auto error = [](const std::string& yaml) {
+    return ErrorOf([&] { ParseWorld(yaml, "w.yaml"); });
+  };
+  std::string msg =
+      error("objects:\n  - {type: pier, polyline_m: [[0, 0], [1e300, 0]], width_m: 4}\n");
+  EXPECT_NE(msg.find("w.yaml:2:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("pier would expand to"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("a world holds at most 100000"), std::string::npos) << msg;
+
+  msg = error(
+      "objects:\n  - {type: pier, polyline_m: [[0, 0], [10, 0]], width_m: 4, "
+      "piles_per_bent: 100000000}\n");
+  EXPECT_NE(msg.find("pier would expand to"), std::string::npos) << msg;
+
+  msg = error(
+      "objects:\n  - {type: dock, polyline_m: [[0, 0], [30, 0]], width_m: 3, "
+      "guide_pile_spacing_m: 1e-9}\n");
+  EXPECT_NE(msg.find("dock would expand to"), std::string::npos) << msg;
+
+  msg = error("objects:\n  - {type: pier, polyline_m: [[0, 0], [0, 0]], width_m: 4}\n");
+  EXPECT_NE(msg.find("polyline_m point 1 equals the one before it"), std::string::npos) << msg;
+
+  msg = error("seabed:\n  depth_m: .nan\n");
+  EXPECT_NE(msg.find("w.yaml:2:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("expected a finite number for depth_m"), std::string::npos) << msg;
+
+  msg = error("objects:\n  - {type: pile, center_m: [.inf, 0], diameter_m: 0.3}\n");
+  EXPECT_NE(msg.find("expected a finite number"), std::string::npos) << msg;
+
+  msg = error("materials:\n  [glass]: 0.2\n");
+  EXPECT_NE(msg.find("w.yaml:2:"), std::string::npos) << msg;
+  msg = error("seabed:\n  {depth_m: 1}: 2\n");
+  EXPECT_NE(msg.find("expected a name as key"), std::string::npos) << msg;
+
+  // A pier of 970 piles is fine.
+  const World w = ParseWorld(
+      "objects:\n  - {type: pier, polyline_m: [[0, 0], [240, 0]], width_m: 4, "
+      "bent_spacing_m: 2.5, piles_per_bent: 10}\n",
+      "w.yaml");
+  EXPECT_EQ(w.primitives.size(), 970u);  // (240 / 2.5 + 1) bents of 10
+}
+
+TEST(MissionConfig, NaNAndInfinityAreErrors) {
+  const std::string msg = ErrorOf([] {
+    ParseMission(
+        "world: w.yaml\nrobots:\n  - {name: a, start_m: [0, 0], speed_mps: .inf, "
+        "pattern: {type: orbit, center_m: [0, 0], radius_m: 5}}\n",
+        "m.yaml", ".");
+  });
+  EXPECT_NE(msg.find("m.yaml:3:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("expected a finite number for speed_mps"), std::string::npos) << msg;
+}
+
+TEST(MissionConfig, AbsurdSonarSizesNameTheFile) {
+  const std::string msg = ErrorOf([] {
+    ParseMission(
+        "world: w.yaml\nsonar: {num_beams: 100000, num_ranges: 512}\nrobots:\n"
+        "  - {name: a, start_m: [0, 0], pattern: {type: orbit, center_m: [0, 0], "
+        "radius_m: 5}}\n",
+        "m.yaml", ".");
+  });
+  EXPECT_NE(msg.find("m.yaml:2:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("sonar images of 512 x 100000 exceed what a recording holds"),
+            std::string::npos)
+      << msg;
+}
+
 TEST(MissionConfig, ParsesRobotsPatternsAndOverrides) {
   const Mission m = ParseMission(R"(name: m
 world: worlds/w.yaml

@@ -632,7 +632,7 @@ ScanExchangeStage::Output ScanExchangeStage::Step(double now_s, const msgs::Obje
         options_.max_heading_gap_rad > 0.0 ? objects::HeadingYawPrior(own_objects, mate_heading)
                                            : std::nullopt;
     reg::RegistrationOptions registration = options_.registration;
-    if (yaw_prior && guess) {
+    if (yaw_prior && guess && options_.headings_prune_turns) {
       std::vector<double> turns;
       for (const double t : registration.ambiguity_turns_deg) {
         if (objects::HeadingAllows(yaw_prior, guess->yaw_rad + t * M_PI / 180.0,

@@ -355,6 +355,11 @@ class ScanExchangeComponent final : public graph::Component {
                        "turns within this of the headings' difference, and registrations "
                        "implying a rotation further from it are refused (<= 0: off)",
                 .unit = "rad"});
+    spec.Param(
+        "headings_prune_turns", &o_.headings_prune_turns,
+        {.doc = "... and the ambiguity test skips the turns the headings exclude (more loops, "
+                "and more placements a few metres off where maps bend: "
+                "docs/safe-merges.md)"});
     spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
                {.doc = "own keyframes this close to a placed teammate scan are candidates",
                 .unit = "m",

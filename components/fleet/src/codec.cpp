@@ -463,7 +463,9 @@ bool ReadAdaptive(Decoder& d, std::size_t n, std::uint64_t max_value, const char
   int k = 0;
   if (!d.Order(&k, field)) return false;
   values->clear();
-  values->reserve(n);
+  // Every value takes at least one bit: a count larger than what is left cannot be met, and
+  // must not size the vector (n is only checked against Bounds, e.g. 20000 keyframes).
+  values->reserve(std::min(n, d.r.remaining_bits()));
   for (std::size_t i = 0; i < n; ++i) {
     std::uint64_t v = 0;
     if (!d.EG(k, &v, field)) return false;

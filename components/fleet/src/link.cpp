@@ -321,6 +321,7 @@ bool LinkEndpoint::NoteIncarnation(TeammateLinkState* t, std::uint32_t incarnati
   t->timeout_clock_s = -1e300;
   t->clock_s = -1e300;
   t->frames_since_restart = 0;
+  t->last_seq = {};
   t->last_map_sent_s = -1e300;
   send_full_poses_ = true;
   return true;
@@ -397,6 +398,16 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
       return false;
     }
     if (!NoteIncarnation(t, h.incarnation)) return false;
+    // Per kind, a teammate's messages carry increasing seqs and the channel keeps their order:
+    // one not above the last delivered is a replay or a stale copy.
+    std::uint32_t& last_seq = t->last_seq[static_cast<std::size_t>(kind)];
+    if (h.seq <= last_seq) {
+      ++counters_.replayed;
+      ++t->frames_rejected;
+      channel_.CountRejected(f.kind);
+      return false;
+    }
+    last_seq = h.seq;
     t->last_heard_s = now_s;
     t->silent = false;
     ++t->frames_received;
@@ -576,6 +587,7 @@ std::string LinkEndpoint::StatsJson() const {
                       {"rejected", counters_.rejected},
                       {"header_mismatch", counters_.header_mismatch},
                       {"stale_incarnation", counters_.stale_incarnation},
+                      {"replayed", counters_.replayed},
                       {"objects_left_out", counters_.objects_left_out},
                       {"inbox_overflow", counters_.inbox_overflow},
                       {"encode_errors", counters_.encode_errors},

@@ -43,6 +43,9 @@ inline constexpr std::size_t kPingFixedBytes = 40;
 inline constexpr std::uint32_t kMaxPayloadBytes = 256u << 20;
 inline constexpr std::uint32_t kMaxImageSide = 1u << 16;
 inline constexpr std::uint64_t kMaxImageCells = 64ull << 20;
+// Deflate's largest expansion (zlib's "maximum compression factor 1032:1"): a compressed image
+// of n bytes holds at most 1032 n pixels.
+inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
 std::uint32_t Crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc = 0);
 

@@ -182,6 +182,33 @@ std::string Hex(std::uint32_t v) {
   return text;
 }
 
+std::uint32_t GetU32BigEndian(const std::uint8_t* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         std::uint32_t{p[3]};
+}
+
+// "" when png (size bytes) starts with the PNG signature and an IHDR chunk of width beams,
+// height ranges, bit depth 8 and colour type 0 (grey); else what is wrong.
+std::string CheckPngHeader(const std::uint8_t* png, std::size_t size, std::uint32_t ranges,
+                           std::uint32_t beams) {
+  static constexpr std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (size < 8 + 8 + 13 || std::memcmp(png, kSignature, 8) != 0 || GetU32BigEndian(png + 8) != 13 ||
+      std::memcmp(png + 12, "IHDR", 4) != 0) {
+    return "PNG image has no PNG signature and header (IHDR)";
+  }
+  const std::uint32_t width = GetU32BigEndian(png + 16);
+  const std::uint32_t height = GetU32BigEndian(png + 20);
+  const int depth = png[24];
+  const int colour = png[25];
+  if (width != beams || height != ranges || depth != 8 || colour != 0) {
+    return "PNG header announces " + std::to_string(height) + " x " + std::to_string(width) +
+           " pixels of bit depth " + std::to_string(depth) + ", colour type " +
+           std::to_string(colour) + "; expected " + std::to_string(ranges) + " x " +
+           std::to_string(beams) + " 8-bit grey (colour type 0)";
+  }
+  return "";
+}
+
 std::string Printable(const std::uint8_t* p, std::size_t n) {
   std::string text;
   for (std::size_t i = 0; i < n; ++i) {
@@ -199,6 +226,9 @@ class SonarStream final : public Stream {
       throw RecordingError(path_.string() + ": missing or unreadable (expected the robot's " +
                            "sonar pings)");
     }
+    // Record lengths are checked against what the file holds before anything is allocated.
+    file_size_ = fs::file_size(path, error);
+    if (error) file_size_ = 0;
     std::uint8_t header[kFileHeaderBytes];
     const std::size_t got = Read(header, sizeof(header));
     if (got < sizeof(header)) {
@@ -238,6 +268,14 @@ class SonarStream final : public Stream {
     if (length > kMaxPayloadBytes) {
       FailRecord(record_offset,
                  "implausible payload length " + std::to_string(length) + " bytes (limit 256 MiB)");
+    }
+    // The buffer never exceeds the file: a record header claiming more than is left is a
+    // truncated file, reported before allocating (a 30-byte file cannot make 256 MiB).
+    const std::uint64_t left = file_size_ > offset_ ? file_size_ - offset_ : 0;
+    if (std::uint64_t{length} + 4 > left) {
+      FailRecord(record_offset, "truncated record: payload and CRC need " +
+                                    std::to_string(std::uint64_t{length} + 4) +
+                                    " bytes, file has " + std::to_string(left));
     }
     record_.resize(8 + static_cast<std::size_t>(length) + 4);
     std::memcpy(record_.data(), header + 4, 8);
@@ -328,6 +366,15 @@ class SonarStream final : public Stream {
            std::to_string(length - at) + " bytes left)");
     }
     const std::size_t cells = static_cast<std::size_t>(ranges) * beams;
+    // Deflate (zlib and PNG) expands at most 1032:1, so a compressed image smaller than
+    // cells / 1032 cannot be whole: refused before the image is allocated. The image buffer is
+    // thus at most 1032 times the record's bytes.
+    if (encoding != static_cast<std::uint8_t>(ImageCompression::kRaw) &&
+        cells / kMaxDeflateRatio > image_size) {
+      fail(std::to_string(image_size) + "-byte compressed image cannot hold " +
+           std::to_string(ranges) + " x " + std::to_string(beams) + " pixels (deflate expands at " +
+           "most " + std::to_string(kMaxDeflateRatio) + ":1)");
+    }
     if (encoding == static_cast<std::uint8_t>(ImageCompression::kRaw)) {
       if (image_size != cells) {
         fail("raw image has " + std::to_string(image_size) + " bytes, expected " +
@@ -335,6 +382,12 @@ class SonarStream final : public Stream {
       }
       ping.intensity.assign(p + at, p + at + cells);
     } else if (encoding == static_cast<std::uint8_t>(ImageCompression::kPng)) {
+      // The PNG header must announce the ping's size, 8-bit grey, before OpenCV allocates what
+      // it announces.
+      if (const std::string problem = CheckPngHeader(p + at, image_size, ranges, beams);
+          !problem.empty()) {
+        fail(problem);
+      }
       const cv::Mat encoded(1, static_cast<int>(image_size), CV_8UC1,
                             const_cast<std::uint8_t*>(p + at));
       cv::Mat image;
@@ -390,6 +443,7 @@ class SonarStream final : public Stream {
 
   fs::path path_;
   std::ifstream file_;
+  std::uint64_t file_size_ = 0;
   std::uint64_t offset_ = 0;
   std::uint64_t records_ = 0;
   std::uint64_t pings_ = 0;

@@ -21,6 +21,75 @@ double Required(const RosValue& msg, const std::string& path) {
   return *v;
 }
 
+double RequiredFinite(const RosValue& msg, const std::string& path) {
+  const double v = Required(msg, path);
+  if (!std::isfinite(v)) throw DecodeError("field '" + path + "' is not a finite number");
+  return v;
+}
+
+std::uint32_t BigEndian16(const std::uint8_t* p) { return (std::uint32_t{p[0]} << 8) | p[1]; }
+std::uint32_t BigEndian32(const std::uint8_t* p) {
+  return (BigEndian16(p) << 16) | BigEndian16(p + 2);
+}
+
+// Deflate (PNG) expands at most 1032:1, and baseline JPEG codes an 8 x 8 block in 2 bits at
+// the least (256 pixels a byte): an image may announce at most this many pixels per byte.
+constexpr std::uint64_t kMaxPixelsPerByte = 1032;
+constexpr std::uint64_t kMaxPixels = 64ull << 20;  // as sonar.drs (recording format)
+
+// "" when data is a JPEG or PNG whose header announces a plausible size; else the problem.
+// Checked before OpenCV decodes (and allocates what the header announces).
+std::string CheckCompressedImage(const std::vector<std::uint8_t>& data) {
+  const std::uint8_t* p = data.data();
+  const std::size_t n = data.size();
+  std::uint64_t width = 0, height = 0;
+  static constexpr std::uint8_t kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (n >= 8 && std::equal(kPng, kPng + 8, p)) {
+    if (n < 33 || std::string(reinterpret_cast<const char*>(p + 12), 4) != "IHDR") {
+      return "PNG without its IHDR header";
+    }
+    width = BigEndian32(p + 16);
+    height = BigEndian32(p + 20);
+    if (p[24] != 8 && p[24] != 16) {
+      return "PNG of bit depth " + std::to_string(p[24]) + " (8 or 16 expected)";
+    }
+  } else if (n >= 4 && p[0] == 0xFF && p[1] == 0xD8) {
+    // JPEG: segments up to the frame header (SOF0 to SOF15 but DHT, JPG and DAC).
+    std::size_t at = 2;
+    while (true) {
+      if (at + 4 > n || p[at] != 0xFF) return "JPEG without a frame header (SOF)";
+      const std::uint8_t marker = p[at + 1];
+      if (marker == 0xFF) {  // fill byte
+        ++at;
+        continue;
+      }
+      if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) {  // no length
+        at += 2;
+        continue;
+      }
+      if (marker == 0xDA || marker == 0xD9) return "JPEG without a frame header (SOF)";
+      const std::size_t length = BigEndian16(p + at + 2);
+      if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) {
+        if (length < 8 || at + 2 + 7 > n) return "JPEG frame header (SOF) cut short";
+        height = BigEndian16(p + at + 5);
+        width = BigEndian16(p + at + 7);
+        break;
+      }
+      if (length < 2) return "JPEG segment of length " + std::to_string(length);
+      at += 2 + length;
+    }
+  } else {
+    return "neither JPEG nor PNG";
+  }
+  const std::uint64_t pixels = width * height;
+  if (pixels == 0 || pixels > kMaxPixels || pixels > kMaxPixelsPerByte * n) {
+    return "the " + std::to_string(n) + "-byte image announces " + std::to_string(height) + " x " +
+           std::to_string(width) + " pixels (implausible: at most " +
+           std::to_string(kMaxPixelsPerByte) + " per byte, and 64 Mi)";
+  }
+  return "";
+}
+
 // Decodes the ping image into rows (range bins) x cols (beams) of 8-bit intensity.
 cv::Mat PingImage(const RosValue& msg) {
   const RosValue* ping = msg.Find("ping");
@@ -30,6 +99,9 @@ cv::Mat PingImage(const RosValue& msg) {
   if (ping->Find("encoding") == nullptr) {
     // sensor_msgs/CompressedImage: JPEG (or PNG) bytes.
     if (data->empty()) throw DecodeError("field 'ping.data': empty compressed image");
+    if (const std::string problem = CheckCompressedImage(*data); !problem.empty()) {
+      throw DecodeError("field 'ping.data': " + problem);
+    }
     cv::Mat image;
     try {
       cv::Mat buffer(1, static_cast<int>(data->size()), CV_8UC1,
@@ -113,7 +185,12 @@ msgs::SonarPing ToSonarPing(const RosValue& msg, double time_s, const ConvertOpt
 
   msgs::SonarPing ping;
   ping.time_s = time_s;
-  ping.ping_id = static_cast<std::uint32_t>(msg.NumberOr("ping_id", 0.0));
+  const double ping_id = msg.NumberOr("ping_id", 0.0);
+  if (!(ping_id >= 0.0 && ping_id <= 4294967295.0)) {
+    throw DecodeError("field 'ping_id': " + std::to_string(ping_id) +
+                      " is not a 32-bit unsigned integer");
+  }
+  ping.ping_id = static_cast<std::uint32_t>(ping_id);
   ping.num_ranges = image.rows;
   ping.num_beams = image.cols;
   ping.range_resolution_m = resolution;
@@ -161,6 +238,9 @@ msgs::Ahrs ToAhrs(const RosValue& msg, double time_s, const ConvertOptions& opti
   ahrs.pitch_rad = sign * e.pitch_rad;
   ahrs.yaw_rad = sign * e.yaw_rad;
   ahrs.yaw_rate_radps = sign * msg.NumberOr("angular_velocity.z", 0.0);
+  if (!std::isfinite(ahrs.yaw_rate_radps)) {
+    throw DecodeError("field 'angular_velocity.z' is not a finite number");
+  }
   return ahrs;
 }
 
@@ -182,7 +262,7 @@ msgs::DvlVelocity ToDvlVelocity(const RosValue& msg, double time_s, const Conver
 msgs::Depth ToDepth(const RosValue& msg, double time_s) {
   msgs::Depth depth;
   depth.time_s = time_s;
-  depth.depth_m = Required(msg, "depth");
+  depth.depth_m = RequiredFinite(msg, "depth");
   return depth;
 }
 
@@ -194,8 +274,9 @@ msgs::GroundTruthPose ToGroundTruthPose(const RosValue& msg, double time_s,
       Required(msg, "pose.orientation.z"), Required(msg, "pose.orientation.w"), "pose.orientation");
   msgs::GroundTruthPose pose;
   pose.time_s = time_s;
-  pose.position_m = {Required(msg, "pose.position.x"), sign * Required(msg, "pose.position.y"),
-                     sign * Required(msg, "pose.position.z")};
+  pose.position_m = {RequiredFinite(msg, "pose.position.x"),
+                     sign * RequiredFinite(msg, "pose.position.y"),
+                     sign * RequiredFinite(msg, "pose.position.z")};
   pose.roll_rad = e.roll_rad;
   pose.pitch_rad = sign * e.pitch_rad;
   pose.yaw_rad = sign * e.yaw_rad;

@@ -1,5 +1,6 @@
 #include "draco/rosbag/ros_message.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cstring>
 
@@ -8,6 +9,7 @@ namespace {
 
 constexpr int kMaxNesting = 64;
 constexpr std::int64_t kMaxFixedArray = 1 << 24;
+constexpr std::size_t kMaxValues = std::size_t{1} << 20;  // per message (uint8 arrays: one)
 
 // Wire size of a builtin type; strings report their minimum (the length prefix).
 std::size_t BuiltinSize(const std::string& type) {
@@ -147,10 +149,19 @@ class Cursor {
 
 class Decoder {
  public:
-  Decoder(const MessageDefinition& def, Cursor* cursor) : def_(def), in_(*cursor) {}
+  // Values decoded at most: two a byte (every value but an empty message takes at least a
+  // byte, so a real message stays far below; fixed arrays of empty messages, nested, each up
+  // to 2^24, would otherwise make a few bytes of definition decode to billions of values),
+  // and kMaxValues a message (a decoded value takes 40 to 72 bytes: a message of a
+  // decompressed chunk, itself up to 16384 times its bytes in the file, stays under 80 MB).
+  Decoder(const MessageDefinition& def, Cursor* cursor)
+      : def_(def),
+        in_(*cursor),
+        budget_(std::min<std::size_t>(2 * cursor->remaining() + 1024, kMaxValues)) {}
 
   RosValue Message(const std::string& type, const std::string& path, int depth) {
     if (depth > kMaxNesting) throw DecodeError("field '" + path + "': nesting too deep");
+    Spend(path);
     const auto* fields = def_.FieldsOf(type);
     if (fields == nullptr) {
       throw DecodeError("field '" + path + "': type '" + type + "' has no definition");
@@ -181,15 +192,24 @@ class Decoder {
                         " bytes left (message truncated?)");
     }
     RosValue::Array items;
-    items.reserve(count);
+    items.reserve(std::min<std::uint64_t>(count, budget_));
     for (std::uint64_t i = 0; i < count; ++i) {
       items.push_back(Element(f, path + "[" + std::to_string(i) + "]", depth));
     }
     return RosValue(std::move(items));
   }
 
+  void Spend(const std::string& path) {
+    if (budget_ == 0) {
+      throw DecodeError("field '" + path + "': more values than a message of this size can " +
+                        "hold (arrays of empty messages?)");
+    }
+    --budget_;
+  }
+
   RosValue Element(const MessageDefinition::Field& f, const std::string& path, int depth) {
     if (!f.builtin) return Message(f.type, path, depth + 1);
+    Spend(path);
     const std::string& t = f.type;
     if (t == "float64") {
       std::uint64_t bits = in_.Unsigned(8, path);
@@ -250,6 +270,7 @@ class Decoder {
 
   const MessageDefinition& def_;
   Cursor& in_;
+  std::size_t budget_;
   std::map<std::string, std::size_t> min_sizes_;
 };
 
@@ -362,13 +383,17 @@ MessageDefinition MessageDefinition::Parse(const std::string& root_type, std::st
       def.types_[current].push_back(std::move(field));
     }
   }
-  // Resolve types named without their package to a defined type of the same short name.
+  // Resolve types named without their package to a defined type of the same short name (the
+  // last in name order when several have it). One lookup table: a long definition text must
+  // not take quadratic time.
+  std::map<std::string, std::string> by_short_name;
+  for (const auto& entry : def.types_) by_short_name[ShortName(entry.first)] = entry.first;
   for (auto& [type, fields] : def.types_) {
     for (auto& f : fields) {
       if (f.builtin || def.types_.count(f.type) != 0) continue;
       std::string match;
-      for (const auto& entry : def.types_) {
-        if (ShortName(entry.first) == ShortName(f.type)) match = entry.first;
+      if (auto it = by_short_name.find(ShortName(f.type)); it != by_short_name.end()) {
+        match = it->second;
       }
       if (match.empty()) {
         throw DecodeError("message definition of '" + root_type + "': type '" + f.type +

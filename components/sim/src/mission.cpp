@@ -1,6 +1,8 @@
 #include "draco/sim/mission.hpp"
 
 #include <cctype>
+#include <cstdint>
+#include <string>
 
 #include "yaml_util.hpp"
 
@@ -80,6 +82,15 @@ class MissionParser {
     s.num_ranges = m.Int("num_ranges", s.num_ranges);
     if (s.num_beams < 2 || s.num_ranges < 16) {
       yaml::Fail(file_, node, "sonar needs num_beams >= 2 and num_ranges >= 16");
+    }
+    // The recording format's bounds (docs/recording-format.md), checked here so that an
+    // absurd size names the mission file before anything is simulated.
+    if (s.num_beams > 65536 || s.num_ranges > 65536 ||
+        std::int64_t{s.num_beams} * s.num_ranges > (std::int64_t{64} << 20)) {
+      yaml::Fail(file_, node,
+                 "sonar images of " + std::to_string(s.num_ranges) + " x " +
+                     std::to_string(s.num_beams) +
+                     " exceed what a recording holds (65536 a side, 64 Mi pixels)");
     }
     s.range_max_m = m.Double("range_max_m", s.range_max_m);
     Positive(m, "range_max_m", s.range_max_m);

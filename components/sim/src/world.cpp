@@ -15,6 +15,11 @@ namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
+// Primitives a world may hold. The sonar model tests every primitive for every beam (the
+// marina world has 439); a pier or dock whose lengths and spacings would expand past this is
+// an error naming it, not an out-of-memory.
+constexpr std::size_t kMaxPrimitives = 100000;
+
 // Deterministic small offset for a pile (real piles are never on a perfect grid).
 double HashJitter(std::uint64_t a, std::uint64_t b) {
   return static_cast<double>(Mix64(a * 1000003ULL + b) >> 11) * 0x1.0p-53 * 2.0 - 1.0;
@@ -66,7 +71,7 @@ class WorldBuilder {
   void ParseMaterials(const YAML::Node& node) {
     if (!node.IsMap()) yaml::Fail(file_, node, "expected 'name: reflectivity' pairs");
     for (const auto& kv : node) {
-      const std::string name = kv.first.as<std::string>();
+      const std::string name = yaml::ToString(file_, kv.first, "material name");
       const double r = yaml::ToDouble(file_, kv.second, "material reflectivity");
       if (r < 0.0 || r > 1.0) yaml::Fail(file_, kv.second, "reflectivity must be in [0, 1]");
       const int idx = world_->FindMaterial(name);
@@ -154,6 +159,31 @@ class WorldBuilder {
     world_->primitives.push_back(p);
   }
 
+  // Fails unless `count` more primitives fit in the world (a double: counts computed from
+  // lengths may be huge, or not finite, before any cast to an integer).
+  void Reserve(const YAML::Node& node, double count, const std::string& what) const {
+    const double room = static_cast<double>(kMaxPrimitives - world_->primitives.size());
+    if (!(count <= room)) {
+      std::ostringstream text;
+      text << what << " would expand to " << count << " primitives; a world holds at most "
+           << kMaxPrimitives << " (" << world_->primitives.size() << " so far)";
+      yaml::Fail(file_, node, text.str());
+    }
+  }
+
+  // Length of each polyline segment; fails on two equal consecutive points (no direction).
+  std::vector<double> SegmentLengths(const yaml::Map& m, const std::vector<Vec2>& line) const {
+    std::vector<double> lengths;
+    for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+      lengths.push_back(Norm(line[i + 1] - line[i]));
+      if (!(lengths.back() > 0.0) || !std::isfinite(lengths.back())) {
+        m.FailAt("polyline_m", "polyline_m point " + std::to_string(i + 1) +
+                                   " equals the one before it (or the segment is not finite)");
+      }
+    }
+    return lengths;
+  }
+
   void AddWall(const std::vector<Vec2>& pts, std::pair<double, double> z, int material, int group) {
     for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
       Primitive p;
@@ -204,6 +234,7 @@ class WorldBuilder {
       yaml::Map m(file_, node, "wall object",
                   {"type", "name", "points_m", "z_m", "height_m", "material"});
       const auto pts = yaml::ToVec2List(file_, m.Get("points_m"), "points_m", 2);
+      Reserve(node, static_cast<double>(pts.size()), "wall");
       AddWall(pts, ZRange(m, pts[0], FullHeight(pts[0])), Material(m, "concrete"), Group(m, type));
     } else if (type == "pier") {
       ParsePier(node);
@@ -235,6 +266,11 @@ class WorldBuilder {
                  "pier needs width_m > 0, bent_spacing_m > 0.1, piles_per_bent >= 1 "
                  "and pile_diameter_m > 0");
     }
+    const std::vector<double> lengths = SegmentLengths(m, line);
+    double piles = 0.0;
+    for (const double len : lengths)
+      piles += (std::max(1.0, std::floor(len / spacing)) + 1) * across;
+    Reserve(node, piles + static_cast<double>(line.size()), "pier");
     const int material = Material(m, "timber");
     const int group = Group(m, "pier");
     const std::size_t first_pile = world_->primitives.size();
@@ -242,7 +278,7 @@ class WorldBuilder {
     for (std::size_t seg = 0; seg + 1 < line.size(); ++seg) {
       const Vec2 a = line[seg];
       const Vec2 b = line[seg + 1];
-      const double len = Norm(b - a);
+      const double len = lengths[seg];
       const Vec2 along = (1.0 / len) * (b - a);
       const Vec2 left{-along.y, along.x};
       const int bents = std::max(1, static_cast<int>(std::floor(len / spacing)));
@@ -297,11 +333,18 @@ class WorldBuilder {
       guide_material = world_->FindMaterial(name);
       if (guide_material < 0) m.FailAt("guide_pile_material", "unknown material '" + name + "'");
     }
+    const std::vector<double> lengths = SegmentLengths(m, line);
+    double parts = 0.0;
+    for (const double len : lengths) {
+      parts += std::max(1.0, std::round(len / section));
+      if (guide_spacing > 0.0) parts += std::max(1.0, std::round(len / guide_spacing)) + 1;
+    }
+    Reserve(node, parts, "dock");
     const int group = Group(m, "dock");
     for (std::size_t seg = 0; seg + 1 < line.size(); ++seg) {
       const Vec2 a = line[seg];
       const Vec2 b = line[seg + 1];
-      const double len = Norm(b - a);
+      const double len = lengths[seg];
       const Vec2 along = (1.0 / len) * (b - a);
       const double yaw = std::atan2(along.y, along.x);
       const int sections = std::max(1, static_cast<int>(std::round(len / section)));

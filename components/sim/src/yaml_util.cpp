@@ -1,6 +1,7 @@
 #include "yaml_util.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 namespace draco::sim::yaml {
@@ -51,11 +52,17 @@ YAML::Node LoadText(const std::string& text, const std::string& source_name) {
 
 double ToDouble(const std::string& file, const YAML::Node& node, const std::string& what) {
   if (!node.IsScalar()) Fail(file, node, "expected a number for " + what);
+  double v = 0.0;
   try {
-    return node.as<double>();
+    v = node.as<double>();
   } catch (const YAML::Exception&) {
     Fail(file, node, "expected a number for " + what + ", got '" + node.Scalar() + "'");
   }
+  // yaml-cpp reads .nan and .inf: no size, rate or coordinate may be one.
+  if (!std::isfinite(v)) {
+    Fail(file, node, "expected a finite number for " + what + ", got '" + node.Scalar() + "'");
+  }
+  return v;
 }
 
 int ToInt(const std::string& file, const YAML::Node& node, const std::string& what) {
@@ -115,7 +122,8 @@ Map::Map(std::string file, YAML::Node node, std::string what, std::vector<std::s
       allowed_(std::move(allowed)) {
   if (!node_.IsMap()) Fail(file_, node_, "expected a mapping (key: value) for " + what_);
   for (const auto& kv : node_) {
-    const std::string key = kv.first.as<std::string>();
+    if (!kv.first.IsScalar()) Fail(file_, kv.first, "expected a name as key in " + what_);
+    const std::string key = kv.first.Scalar();
     if (std::find(allowed_.begin(), allowed_.end(), key) == allowed_.end()) {
       Fail(file_, kv.first,
            "unknown key '" + key + "' in " + what_ + " (expected one of: " + Join(allowed_) + ")");

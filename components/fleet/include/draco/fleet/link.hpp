@@ -19,6 +19,7 @@
 // daemon replays from the start at full speed and rejoins when it catches up.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -75,6 +76,9 @@ struct TeammateLinkState {
   double last_map_sent_s = -1e300;         // own object map last queued (for resends)
   int restarts = 0;                        // new incarnations seen after the first
   std::uint64_t frames_since_restart = 0;  // messages from the current incarnation
+  // Header seq of the last message delivered, per kind, of the current incarnation: a message
+  // whose seq is not above it is a replay (or older than one delivered) and is rejected.
+  std::array<std::uint32_t, msgs::kNumFleetKinds> last_seq{};
 };
 
 struct LinkCounters {
@@ -83,7 +87,8 @@ struct LinkCounters {
   std::uint64_t rejected = 0;           // failed to decode or broke a bound
   std::uint64_t header_mismatch = 0;    // message header robot differs from the frame source
   std::uint64_t stale_incarnation = 0;  // frames of a teammate's replaced incarnation
-  std::uint64_t objects_left_out = 0;   // own objects the encoding's bounds cannot carry
+  std::uint64_t replayed = 0;  // messages heard again, or older than one of their kind delivered
+  std::uint64_t objects_left_out = 0;  // own objects the encoding's bounds cannot carry
   std::uint64_t inbox_overflow = 0;
   std::uint64_t encode_errors = 0;  // own messages that broke a bound (not sent)
   std::string last_encode_error;    // what the last such message broke

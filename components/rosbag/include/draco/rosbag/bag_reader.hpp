@@ -1,7 +1,8 @@
 // Streams the sonar and navigation messages of a ROS 1 bag recorded on a vehicle, in bag
 // (receipt) time order, converted to draco's sensor messages. Each connection is decoded
-// by the message definition stored in the bag, so older layouts work. The rosbag library
-// stays inside bag_reader.cpp.
+// by the message definition stored in the bag, so older layouts work. The bag file itself
+// (format 2.0) is read by draco's own reader (src/bag_file.hpp), which checks every length,
+// count and offset against the file.
 //
 //   draco::rosbag::BagReader reader = draco::rosbag::BagReader::Open("mission.bag", {});
 //   while (auto record = reader.Next()) { ... std::get_if<msgs::SonarPing>(&record->message) }
