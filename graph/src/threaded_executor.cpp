@@ -64,6 +64,8 @@ class ThreadedEngine {
       }
     }
     if (started) {
+      // Asked before the sources run: SourceEndTime() must not race their NextSourceTime().
+      const Time end = options_.progress ? ExpectedEnd(graph_, options_) : Time::Max();
       for (int i = 0; i < threads_; ++i) workers_.emplace_back([this] { WorkerLoop(); });
       std::vector<std::thread> sources;
       for (const auto& n : graph_.nodes) {
@@ -72,7 +74,7 @@ class ThreadedEngine {
       std::thread clock;
       if (rate_ > 0.0) clock = std::thread([this] { ClockLoop(); });
       std::thread progress;
-      if (options_.progress) progress = std::thread([this] { ProgressLoop(); });
+      if (options_.progress) progress = std::thread([this, end] { ProgressLoop(end); });
       for (auto& s : sources) s.join();
       progress_done_ = true;
       if (progress.joinable()) progress.join();
@@ -293,9 +295,8 @@ class ThreadedEngine {
   }
 
   // Tells RunOptions::progress the mission clock about every progress_period_s of wall time
-  // until the sources are done.
-  void ProgressLoop() {
-    const Time end = ExpectedEnd(graph_, options_);
+  // until the sources are done; `end` was asked before the sources ran.
+  void ProgressLoop(Time end) {
     auto last = std::chrono::steady_clock::now();
     while (!progress_done_ && !Stopping()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
