@@ -291,9 +291,12 @@ TEST(DdsTransport, TopicPrefixSeparatesTeamsOnOneDomain) {
     exchange();
     return !at_a2.empty() && !at_b4.empty();
   })) << "a team did not hear itself";
-  PollFor(0.5, [&] {  // more frames, time for any cross-team sample to arrive
+  // More frames, and time for any cross-team sample to arrive: at least 0.5 s and more than
+  // 10 frames each (an exchange can take longer than 50 ms on a slow or sanitized build).
+  const auto settle = Clock::now() + std::chrono::milliseconds(500);
+  PollFor(20.0, [&] {
     exchange();
-    return false;
+    return Clock::now() >= settle && at_a2.size() > 10u && at_b4.size() > 10u;
   });
   for (const Frame& f : at_a2)
     EXPECT_EQ(f.source, 1) << "robot 2 (team A) heard robot " << f.source;
