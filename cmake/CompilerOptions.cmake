@@ -19,10 +19,14 @@ endif()
 # Sanitizers apply to every target of the project (libraries, apps, tests, generated IDL
 # code), so they are directory-wide options rather than draco_options.
 string(TOLOWER "${DRACO_SANITIZE}" draco_sanitize)
+# Test timeouts (tests/) are multiplied by this: sanitized code runs 2-15x slower.
+set(DRACO_TEST_TIMEOUT_FACTOR 1)
 if(draco_sanitize STREQUAL "thread")
+  set(DRACO_TEST_TIMEOUT_FACTOR 4)
   add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
   add_link_options(-fsanitize=thread)
 elseif(draco_sanitize MATCHES "^(on|yes|true|1|address)$")
+  set(DRACO_TEST_TIMEOUT_FACTOR 4)
   add_compile_options(
     -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
   add_link_options(-fsanitize=address,undefined -fno-sanitize-recover=all)
