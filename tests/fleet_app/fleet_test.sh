@@ -13,6 +13,9 @@ fleet=$2
 robot=$3
 src=$4
 fail() { echo "FAIL: $*"; exit 1; }
+# Wall-time waits are scaled for slow (sanitizer) builds: CTest sets DRACO_TEST_TIME_FACTOR.
+factor=${DRACO_TEST_TIME_FACTOR:-1}
+scaled() { awk -v s="$1" -v f="$factor" 'BEGIN { print s * f }'; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 domain=$(( ($$ % 200) + 10 ))
@@ -45,7 +48,7 @@ done
 
 # Kill bravo about a third of the way in (paced at 8x: 40 s of mission in ~5 s) and restart it.
 "$fleet" "$work/m" --mode dds --out "$work/kill" --domain "$domain" --kill bravo \
-  --kill-after-s 1.5 --restart-after-s 0.5 --rate 8 --set link.lockstep_timeout_s=2 \
+  --kill-after-s "$(scaled 1.5)" --restart-after-s 0.5 --rate 8 --set link.lockstep_timeout_s=2 \
   >"$work/kill.log" 2>&1 || { cat "$work/kill.log"; fail "kill/restart run failed"; }
 cat "$work/kill.log"
 grep -q "restarted bravo" "$work/kill.log" || fail "bravo was not restarted"
@@ -70,9 +73,9 @@ PY
 "$robot" --mission "$work/m" --robot charlie --out "$work/term" --domain "$domain" --quiet \
   >"$work/term.log" 2>&1 &
 pid=$!
-sleep 1.5
+sleep "$(scaled 1.5)"
 kill -TERM $pid
-for _ in $(seq 1 50); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
+for _ in $(seq 1 $((50 * factor))); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
 kill -0 $pid 2>/dev/null && { kill -KILL $pid; fail "daemon still running 5 s after SIGTERM"; }
 wait $pid || { cat "$work/term.log"; fail "SIGTERM: non-zero exit"; }
 for f in charlie.link_stats.json charlie.trajectory.tum charlie.runtime_stats.json; do
