@@ -17,6 +17,14 @@ std::vector<Xy> ReadMapXy(const std::string& path) {
   return out;
 }
 
+void WriteTeamCloud(const TeamMap& map, const std::string& path) {
+  std::vector<msgs::Point2> points;
+  for (const auto& robot : map.robots) {
+    for (const auto& p : robot.cloud) points.push_back({p.x, p.y});
+  }
+  pointcloud_io::WritePcd(path, points);
+}
+
 std::string MapCloudPath(const std::string& dir, const std::string& robot) {
   for (const char* ext : {".map.pcd", ".map.ply"}) {
     const std::filesystem::path path = std::filesystem::path(dir) / (robot + ext);

@@ -226,6 +226,7 @@ std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::s
     map.robots.push_back(std::move(layer));
   }
   RenderTeamMap(map, (dir / map_png).string());
+  WriteTeamCloud(map, (dir / fs::path(map_png).replace_extension(".pcd")).string());
   out.push_back(
       {map_png, std::string(map_png == "team_map.png" ? "Team map" : "Local maps") +
                     ": each robot's local-SLAM trajectory (solid, aligned to ground truth by "

@@ -169,6 +169,7 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
   }
   if (!map.robots.empty()) {
     RenderTeamMap(map, (dir / "team_map.png").string());
+    WriteTeamCloud(map, (dir / "team_map.pcd").string());
     out.push_back(
         {"team_map.png",
          "Team map in " + M + "'s map frame (" + std::to_string(placed_count) + " of " +

@@ -18,6 +18,10 @@ void WriteFileAtomically(const std::string& path, const std::string& bytes);
 // std::runtime_error naming the file.
 std::vector<Xy> ReadMapXy(const std::string& path);
 
+// Every robot's point cloud of a team map, in the map's frame (as drawn), as one binary PCD
+// (pcl::io). Throws std::runtime_error naming the file.
+void WriteTeamCloud(const TeamMap& map, const std::string& path);
+
 // The point-cloud map of `robot` in a run folder: <robot>.map.pcd, else <robot>.map.ply; ""
 // when neither exists.
 std::string MapCloudPath(const std::string& dir, const std::string& robot);
