@@ -18,13 +18,14 @@
 //               a true one within 1.5 m and 15 deg (draco-frontend-eval's criterion).
 // Times are CPU time of the calling thread per registration, target preparation included.
 #include <time.h>
-#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <numbers>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -67,23 +68,54 @@ struct SeqPair {
 
 }  // namespace
 
+constexpr const char* kUsage =
+    "usage: registration_backends_bench MISSION_DIR --out DIR [--reuse] [--graph YAML]\n"
+    "         [--backends draco,pcl_icp,pcl_gicp,pcl_ndt] [--ndt-resolution M] "
+    "[--sequential-only]\n";
+
 int main(int argc, char** argv) {
-  CLI::App app{"registration_backends_bench: registration back ends on a recorded mission"};
+  // Plain argument parsing: CLI11 alone would double this file's compile time.
   std::string mission, out_dir,
       graph_path = std::string(DRACO_SOURCE_DIR) + "/config/graphs/local-slam.yaml";
-  bool reuse = false;
+  bool reuse = false, sequential_only = false;
   std::vector<std::string> backends = icp::BackendNames();
   double ndt_resolution_m = icp::IcpOptions{}.ndt_resolution_m;
-  app.add_option("mission", mission, "recorded mission folder")->required();
-  app.add_option("--out", out_dir, "output folder (local SLAM outputs, keyframe cache)")
-      ->required();
-  app.add_option("--graph", graph_path, "local-SLAM graph YAML");
-  app.add_flag("--reuse", reuse, "reuse the keyframes cached in the out folder");
-  app.add_option("--backends", backends, "back ends to compare")->delimiter(',');
-  app.add_option("--ndt-resolution", ndt_resolution_m, "pcl_ndt voxel size m");
-  bool sequential_only = false;
-  app.add_flag("--sequential-only", sequential_only, "skip the inter-robot registrations");
-  CLI11_PARSE(app, argc, argv);
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (a == "--reuse") {
+      reuse = true;
+    } else if (a == "--sequential-only") {
+      sequential_only = true;
+    } else if (a == "--out" && has_value) {
+      out_dir = argv[++i];
+    } else if (a == "--graph" && has_value) {
+      graph_path = argv[++i];
+    } else if (a == "--ndt-resolution" && has_value) {
+      ndt_resolution_m = std::stod(argv[++i]);
+    } else if (a == "--backends" && has_value) {
+      backends.clear();
+      std::stringstream list(argv[++i]);
+      for (std::string b; std::getline(list, b, ',');) backends.push_back(b);
+    } else if (a.rfind("--", 0) != 0 && mission.empty()) {
+      mission = a;
+    } else {
+      std::fprintf(stderr, "%s", kUsage);
+      return a == "--help" || a == "-h" ? 0 : 2;
+    }
+  }
+  if (mission.empty() || out_dir.empty()) {
+    std::fprintf(stderr, "%s", kUsage);
+    return 2;
+  }
+  for (const auto& b : backends) {
+    try {
+      icp::ParseBackend(b);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "registration_backends_bench: %s\n", e.what());
+      return 2;
+    }
+  }
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
