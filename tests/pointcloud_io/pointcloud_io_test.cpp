@@ -14,8 +14,11 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "draco/pointcloud_io/pointcloud_io.hpp"
+#include "largest_allocation.hpp"
 
 namespace draco::pointcloud_io {
 namespace {
@@ -218,10 +221,57 @@ TEST(PointcloudIo, DamagedHeadersAreRefusedByName) {
   ExpectErrorNaming(path, ReadMapPcd, "WIDTH x HEIGHT");
   Spit(path, "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nPOINTS 1\nDATA lzma\n");
   ExpectErrorNaming(path, ReadMapPcd, "DATA must be");
+  // The text points themselves: as many as announced, each with as many numbers.
+  const std::string xyz = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  Spit(path, xyz + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1.5 2.5 0\n3.5 4.5\n");
+  ExpectErrorNaming(path, ReadMapPcd, "line 11: 2 values, the header announces 3");
+  Spit(path, xyz + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 0\nCOLUMNS x y\n");
+  ExpectErrorNaming(path, ReadMapPcd, "'COLUMNS' is not a number");
+  Spit(path, xyz + "WIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA ascii\n1 2 0\n3 4 0\n5 6 0\n");
+  ExpectErrorNaming(path, ReadMapPcd, "more points than the header's 2");
   Spit(path, "not a point cloud at all");
   ExpectErrorNaming(path, ReadMapPcd);
   Spit(dir / "h.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n");
   ExpectErrorNaming((dir / "h.ply").string(), ReadMapPly);
+  fs::remove_all(dir);
+}
+
+// PCL sizes its buffers from the header before reading: a small file announcing a huge cloud
+// is refused before PCL allocates (docs/hardening.md, "Memory bounds").
+TEST(PointcloudIo, HeadersCannotMakeTheReaderAllocateWhatTheFileCannotHold) {
+  const fs::path dir = TempDir("bounds");
+  const std::string pcd = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n";
+  std::string lzf("\x10\x00\x00\x00\x00\x00\x00\x0c", 8);  // 16 bytes packed, 192 MiB
+  lzf += std::string(16, 'a');
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases{
+      {"binary.pcd",
+       pcd + "WIDTH 100000000\nHEIGHT 1\nPOINTS 100000000\nDATA binary\n" + std::string(64, '\0'),
+       "truncated"},
+      {"packed.pcd",
+       pcd + "WIDTH 16777216\nHEIGHT 1\nPOINTS 16777216\nDATA binary_compressed\n" + lzf,
+       "cannot hold"},
+      {"wide.pcd",
+       "VERSION 0.7\nFIELDS x y w\nSIZE 4 4 8\nTYPE F F F\nCOUNT 1 1 1000000\nWIDTH 100\n"
+       "HEIGHT 1\nPOINTS 100\nDATA ascii\n" +
+           std::string(1200, '1'),
+       "truncated"},
+      {"binary.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\n"
+       "property float y\nproperty float z\nend_header\nabcdefghijkl",
+       "truncated"},
+      {"ascii.ply",
+       "ply\nformat ascii 1.0\nelement vertex 300000000\nproperty float x\nproperty float y\n"
+       "end_header\n1 2\n",
+       "truncated"}};
+  for (const auto& [name, bytes, why] : cases) {
+    const std::string path = (dir / name).string();
+    Spit(path, bytes);
+    const test_support::LargestAllocation largest;
+    ExpectErrorNaming(path, ReadMap, why);
+    if (test_support::LargestAllocation::Supported()) {
+      EXPECT_LT(largest.bytes(), 1u << 20) << name;
+    }
+  }
   fs::remove_all(dir);
 }
 
