@@ -20,6 +20,7 @@ import csv
 import json
 import math
 import os
+import struct
 import sys
 
 
@@ -36,10 +37,114 @@ def numbers(tokens):
     return vals
 
 
+PCD_TYPES = {("F", 4): "f", ("F", 8): "d", ("I", 1): "b", ("I", 2): "h", ("I", 4): "i",
+             ("I", 8): "q", ("U", 1): "B", ("U", 2): "H", ("U", 4): "I", ("U", 8): "Q"}
+PLY_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h",
+             "ushort": "H", "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I",
+             "float": "f", "float32": "f", "double": "d", "float64": "d"}
+
+
+def check_pcd(data):
+    """None when a PCD file (as PCL writes it: ascii, binary or binary_compressed) is whole.
+
+    The header is ASCII up to the DATA line; binary data is POINTS x the point size, every
+    float finite; binary_compressed starts with its compressed and uncompressed sizes."""
+    header, pos = {}, 0
+    while "DATA" not in header:
+        end = data.find(b"\n", pos)
+        if end < 0:
+            return "no DATA line"
+        tokens = data[pos:end].decode("ascii").split()
+        pos = end + 1
+        if tokens and not tokens[0].startswith("#"):
+            header[tokens[0]] = tokens[1:]
+    for key in ("FIELDS", "SIZE", "TYPE", "POINTS"):
+        if key not in header:
+            return "no %s line" % key
+    fields = header["FIELDS"]
+    counts = [int(c) for c in header.get("COUNT", ["1"] * len(fields))]
+    types = list(zip(header["TYPE"], [int(z) for z in header["SIZE"]]))
+    if not len(fields) == len(types) == len(counts) or any(t not in PCD_TYPES for t in types):
+        return "FIELDS, SIZE, TYPE, COUNT disagree"
+    points, kind, body = int(header["POINTS"][0]), header["DATA"][0], data[pos:]
+    fmt = "<" + "".join(PCD_TYPES[t] * c for t, c in zip(types, counts))
+    if kind == "ascii":
+        lines = [l for l in body.decode("ascii").splitlines() if l.strip()]
+        if len(lines) != points:
+            return "%d points, header says %d" % (len(lines), points)
+        for l in lines:
+            numbers(l.split())
+    elif kind == "binary":
+        if len(body) != points * struct.calcsize(fmt):
+            return "%d bytes of points, header says %d x %d" % (len(body), points,
+                                                              struct.calcsize(fmt))
+        for values in struct.iter_unpack(fmt, body):
+            if not all(math.isfinite(v) for v in values):
+                return "a value that is not finite"
+    elif kind == "binary_compressed":
+        if points == 0:
+            return None
+        if len(body) < 8:
+            return "no compressed block"
+        packed, unpacked = struct.unpack("<II", body[:8])
+        if unpacked != points * struct.calcsize(fmt) or len(body) < 8 + packed:
+            return "compressed block of %d bytes (%d unpacked), %d points" % (packed, unpacked,
+                                                                             points)
+    else:
+        return "DATA %s" % kind
+    return None
+
+
+def check_ply(data):
+    """None when a PLY file (ascii or binary_little_endian, scalar properties) is whole."""
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        return "no ply magic or end_header"
+    elements, kind = [], None
+    for line in data[:end].decode("ascii").splitlines():
+        tokens = line.split()
+        if tokens[:1] == ["format"]:
+            kind = tokens[1]
+        elif tokens[:1] == ["element"]:
+            elements.append((tokens[1], int(tokens[2]), []))
+        elif tokens[:1] == ["property"]:
+            if tokens[1] == "list" or tokens[1] not in PLY_TYPES:
+                return "property %s not checked" % " ".join(tokens[1:])
+            elements[-1][2].append(PLY_TYPES[tokens[1]])
+    vertices = [e for e in elements if e[0] == "vertex"]
+    if not vertices:
+        return "no vertex element"
+    body = data[end + len(b"end_header\n"):]
+    if kind == "ascii":
+        lines = [l for l in body.decode("ascii").splitlines() if l.strip()]
+        if len(lines) < vertices[0][1]:
+            return "%d lines, header says %d vertices" % (len(lines), vertices[0][1])
+        for l in lines:
+            numbers(l.split())
+    elif kind == "binary_little_endian":
+        size = sum(n * struct.calcsize("<" + "".join(p)) for _, n, p in elements)
+        if len(body) != size:
+            return "%d bytes of elements, header says %d" % (len(body), size)
+        fmt = "<" + "".join(vertices[0][2])
+        start = sum(n * struct.calcsize("<" + "".join(p))
+                    for _, n, p in elements[:elements.index(vertices[0])])
+        for values in struct.iter_unpack(fmt, body[start:start + vertices[0][1] *
+                                                   struct.calcsize(fmt)]):
+            if not all(math.isfinite(v) for v in values):
+                return "a vertex value that is not finite"
+    else:
+        return "format %s" % kind
+    return None
+
+
 def check_file(path):
     """None when the file parses, else why not."""
     name = os.path.basename(path)
     try:
+        if name.endswith(".pcd") or name.endswith(".ply"):
+            with open(path, "rb") as f:
+                data = f.read()
+            return check_pcd(data) if name.endswith(".pcd") else check_ply(data)
         with open(path, encoding="utf-8") as f:
             text = f.read()
         if name.endswith(".json"):
@@ -69,28 +174,7 @@ def check_file(path):
                     numbers(tokens[1:])
                 except ValueError:
                     return "line %d: %s with a value that is not a number" % (i, tokens[0])
-        elif name.endswith(".pcd"):
-            lines = text.splitlines()
-            points = [l for l in lines if l.startswith("POINTS ")]
-            start = [i for i, l in enumerate(lines) if l.startswith("DATA ascii")]
-            if not points or not start:
-                return "no POINTS or DATA ascii line"
-            data = [l for l in lines[start[0] + 1:] if l.strip()]
-            if len(data) != int(points[0].split()[1]):
-                return "%d points, header says %s" % (len(data), points[0].split()[1])
-            for l in data:
-                numbers(l.split())
-        elif name.endswith(".ply"):
-            lines = text.splitlines()
-            verts = [l for l in lines if l.startswith("element vertex ")]
-            if not verts or "end_header" not in lines:
-                return "no vertex element or end_header"
-            data = [l for l in lines[lines.index("end_header") + 1:] if l.strip()]
-            if len(data) < int(verts[0].split()[2]):
-                return "%d lines, header says %s vertices" % (len(data), verts[0].split()[2])
-            for l in data:
-                numbers(l.split())
-    except (ValueError, UnicodeDecodeError, OSError) as e:
+    except (ValueError, UnicodeDecodeError, OSError, struct.error, IndexError) as e:
         return str(e)
     return None
 

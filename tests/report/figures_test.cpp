@@ -185,19 +185,31 @@ TEST(Report, AtomicWriteLeavesNoTemporaryFile) {
   fs::remove_all(dir);
 }
 
-TEST(Report, ReadsAsciiPly) {
+TEST(Report, ReadsMapsAsPclReadsThem) {
   const fs::path dir = TempDir("ply");
   const std::string path = (dir / "m.ply").string();
   WriteFileAtomically(path,
                       "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float "
                       "y\nproperty float z\nend_header\n1.5 -2 0\n3 4 0\n");
-  const auto pts = ReadPlyXy(path);
+  const auto pts = ReadMapXy(path);
   ASSERT_EQ(pts.size(), 2u);
   EXPECT_DOUBLE_EQ(pts[0].x, 1.5);
   EXPECT_DOUBLE_EQ(pts[1].y, 4.0);
   WriteFileAtomically(path,
                       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty "
                       "float y\nend_header\n1 2\n");
-  EXPECT_THROW(ReadPlyXy(path), std::runtime_error);
+  EXPECT_THROW(ReadMapXy(path), std::runtime_error);
+  // The robot's map: the PCD first, else the PLY.
+  EXPECT_EQ(MapCloudPath(dir.string(), "m"), "");
+  fs::rename(path, dir / "r.map.ply");
+  EXPECT_EQ(MapCloudPath(dir.string(), "r"), (dir / "r.map.ply").string());
+  WriteFileAtomically((dir / "r.map.pcd").string(),
+                      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
+                      "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n-7.25 8.5 0\n");
+  EXPECT_EQ(MapCloudPath(dir.string(), "r"), (dir / "r.map.pcd").string());
+  const auto pcd = ReadMapXy(MapCloudPath(dir.string(), "r"));
+  ASSERT_EQ(pcd.size(), 1u);
+  EXPECT_DOUBLE_EQ(pcd[0].x, -7.25);
+  EXPECT_DOUBLE_EQ(pcd[0].y, 8.5);
   fs::remove_all(dir);
 }

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "draco/pointcloud_io/pointcloud_io.hpp"
 #include "draco/report/files.hpp"
 #include "draco/report/run_report.hpp"
 
@@ -58,6 +59,7 @@ class RunReportTest : public ::testing::Test {
     WriteFileAtomically(d("ground_truth.tum"), Tum({{0, 0, 0}, {1, 0, 1}, {2, 0, 2}}));
     WriteFileAtomically(d("r2.trajectory.tum"), Tum({{0, 0, 0}, {1, 0, 1}, {2, 0, 2}}));
     WriteFileAtomically(d("r2.runtime_stats.json"), Stats(30, 1.0, 9.0));
+    draco::pointcloud_io::WritePcd(d("r1.map.pcd"), {{0.5, 1.0}, {2.0, -1.0}, {3.0, 0.25}});
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;
@@ -109,6 +111,8 @@ TEST_F(RunReportTest, WritesReportWithTablesAndFigures) {
   EXPECT_NE(md.find("`draco-eval "), std::string::npos);
   EXPECT_TRUE(fs::exists(dir_ / "team_map.png"));
   EXPECT_TRUE(fs::exists(dir_ / "ate.png"));
+  // The drawn point clouds as one PCD beside the picture (r1's map, aligned as drawn).
+  EXPECT_EQ(draco::pointcloud_io::ReadMapPcd((dir_ / "team_map.pcd").string()).size(), 3u);
   // Atomic writes: nothing temporary is left behind.
   for (const auto& e : fs::directory_iterator(dir_)) {
     EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();

@@ -18,6 +18,7 @@
 #include "draco/graph/testing/harness.hpp"
 #include "draco/icp/sequential.hpp"
 #include "draco/msgs/map.hpp"
+#include "draco/pointcloud_io/pointcloud_io.hpp"
 #include "draco/pose_graph/g2o.hpp"
 
 namespace draco::slam {
@@ -512,14 +513,17 @@ TEST(LocalSlamComponent, WritesItsOutputsOnStop) {
                            "intra_loops.csv", "map.ply", "map.pcd", "landmarks.csv"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / (std::string("r.") + name))) << name;
   }
-  std::ifstream pcd(dir / "r.map.pcd");
-  std::string line, points;
-  while (std::getline(pcd, line)) {
-    if (line.rfind("POINTS ", 0) == 0) points = line.substr(7);
-  }
+  // The map as PCL wrote it (binary PCD and PLY), every keyframe's points.
   std::size_t expected = 0;
   for (int i = 0; i < 4; ++i) expected += mission.keyframes[i].points_body.size();
-  EXPECT_EQ(points, std::to_string(expected));
+  EXPECT_EQ(pointcloud_io::ReadMapPcd((dir / "r.map.pcd").string()).size(), expected);
+  EXPECT_EQ(pointcloud_io::ReadMapPly((dir / "r.map.ply").string()).size(), expected);
+  std::ifstream pcd(dir / "r.map.pcd", std::ios::binary);
+  std::string line, data;
+  while (std::getline(pcd, line) && data.empty()) {
+    if (line.rfind("DATA ", 0) == 0) data = line;
+  }
+  EXPECT_EQ(data, "DATA binary");
   std::filesystem::remove_all(dir);
 }
 

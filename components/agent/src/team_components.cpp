@@ -27,6 +27,7 @@
 #include "draco/agent/stages.hpp"
 #include "draco/graph/component.hpp"
 #include "draco/graph/executor.hpp"
+#include "draco/icp/icp.hpp"
 #include "draco/msgs/fleet.hpp"
 #include "draco/msgs/map.hpp"
 #include "draco/msgs/team.hpp"
@@ -334,6 +335,12 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "registration window (keyframes each side)", .min = 0, .max = 20});
     spec.Param("min_overlap", &o_.registration.min_overlap,
                {.doc = "registration acceptance (overlap ratio)", .min = 0.0, .max = 1.0});
+    spec.Param("backend", &backend_,
+               {.doc = "registration back end: draco's 2D ICP, or PCL's ICP (2D), GICP or NDT "
+                       "(3D with z = 0, projected to SE(2)); docs/benchmarks.md compares them",
+                .choices = icp::BackendNames()});
+    spec.Param("ndt_resolution_m", &o_.registration.icp.ndt_resolution_m,
+               {.doc = "pcl_ndt: voxel size", .unit = "m", .min = 0.05});
     spec.Param("ambiguity_offsets_m", &o_.registration.ambiguity_offsets_m,
                {.doc = "registration ambiguity test: ICP again from the answer moved by each of "
                        "these (8 directions); empty: off",
@@ -375,6 +382,7 @@ class ScanExchangeComponent final : public graph::Component {
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
+    o_.registration.icp.backend = icp::ParseBackend(backend_);
     stage_ = std::make_unique<ScanExchangeStage>(o_);
     return Status::Ok();
   }
@@ -425,6 +433,7 @@ class ScanExchangeComponent final : public graph::Component {
  private:
   ScanExchangeStageOptions o_;
   std::string prefix_;
+  std::string backend_ = "draco";
   std::unique_ptr<ScanExchangeStage> stage_;
   Absorber in_;
   std::shared_ptr<const msgs::OwnObjectMap> own_;

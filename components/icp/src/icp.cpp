@@ -4,6 +4,9 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+
+#include "backends.hpp"
 
 namespace draco::icp {
 namespace {
@@ -123,49 +126,45 @@ double OverlapRatio(const Cloud2& source, const KdTree2& target, const msgs::Pos
   return static_cast<double>(hits) / static_cast<double>(source.size());
 }
 
-IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
-                   const msgs::Pose2& initial_T_target_source, const IcpOptions& o) {
-  IcpResult result;
-  Rigid T = FromPose(initial_T_target_source);
-  const Cloud2& tp = target.points();
-  if (source.empty() || tp.empty()) {
-    result.T_target_source = initial_T_target_source;
-    return result;
-  }
+namespace {
+
+// Correspondences of the source moved by T: the nearest target point within the maximum
+// distance, then the closest trim_fraction of them. False when fewer than
+// min_correspondences remain.
+bool Match(const Cloud2& source, const Rigid& T, const KdTree2& tree, const IcpOptions& o,
+           Cloud2* moved, std::vector<Pair>* pairs) {
   const double max2 = o.max_correspondence_distance_m * o.max_correspondence_distance_m;
-  Cloud2 moved(source.size());
-  std::vector<Pair> pairs;
-  pairs.reserve(source.size());
+  for (std::size_t i = 0; i < source.size(); ++i) (*moved)[i] = T.R * source[i] + T.t;
+  pairs->clear();
+  for (std::size_t i = 0; i < source.size(); ++i) {
+    double d2;
+    const int j = tree.Nearest((*moved)[i], max2, &d2);
+    if (j >= 0) pairs->push_back(Pair{static_cast<int>(i), j, d2});
+  }
+  const auto keep = static_cast<std::size_t>(std::ceil(o.trim_fraction * pairs->size()));
+  if (keep < pairs->size()) {
+    std::nth_element(pairs->begin(), pairs->begin() + keep, pairs->end(),
+                     [](const Pair& a, const Pair& b) { return a.distance2 < b.distance2; });
+    pairs->resize(keep);
+  }
+  return static_cast<int>(pairs->size()) >= o.min_correspondences;
+}
+
+// draco's ICP iterations from T; fills valid, converged, iterations.
+Rigid IterateDraco(const Cloud2& source, IcpTarget& target, Rigid T, const IcpOptions& o,
+                   Cloud2* moved, std::vector<Pair>* pairs, IcpResult* result) {
   std::vector<double> dt_hist, dr_hist;
-
-  auto match = [&]() {
-    for (std::size_t i = 0; i < source.size(); ++i) moved[i] = T.R * source[i] + T.t;
-    pairs.clear();
-    for (std::size_t i = 0; i < source.size(); ++i) {
-      double d2;
-      const int j = target.tree().Nearest(moved[i], max2, &d2);
-      if (j >= 0) pairs.push_back(Pair{static_cast<int>(i), j, d2});
-    }
-    const auto keep = static_cast<std::size_t>(std::ceil(o.trim_fraction * pairs.size()));
-    if (keep < pairs.size()) {
-      std::nth_element(pairs.begin(), pairs.begin() + keep, pairs.end(),
-                       [](const Pair& a, const Pair& b) { return a.distance2 < b.distance2; });
-      pairs.resize(keep);
-    }
-    return static_cast<int>(pairs.size()) >= o.min_correspondences;
-  };
-
-  result.valid = true;
+  result->valid = true;
   for (int it = 0; it < o.max_iterations; ++it) {
-    if (!match()) {
-      result.valid = false;
+    if (!Match(source, T, target.tree(), o, moved, pairs)) {
+      result->valid = false;
       break;
     }
     const Rigid d = o.metric == Metric::kPointToPoint
-                        ? SolvePointToPoint(moved, tp, pairs)
-                        : SolvePointToLine(moved, target, pairs, o.normal_neighbors);
+                        ? SolvePointToPoint(*moved, target.points(), *pairs)
+                        : SolvePointToLine(*moved, target, *pairs, o.normal_neighbors);
     T = ComposeLeft(d, T);
-    result.iterations = it + 1;
+    result->iterations = it + 1;
     // Size of the change of T (the translation change includes the rotation's effect on t).
     dt_hist.push_back((d.R * Eigen::Vector2d::Zero() + d.t).norm());
     dr_hist.push_back(std::abs(d.yaw));
@@ -177,13 +176,51 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
         mr += dr_hist[dr_hist.size() - 1 - k];
       }
       if (mt / w < o.convergence_translation_m && mr / w < o.convergence_rotation_rad) {
-        result.converged = true;
+        result->converged = true;
         break;
       }
     }
   }
+  return T;
+}
+
+}  // namespace
+
+IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
+                   const msgs::Pose2& initial_T_target_source, const IcpOptions& o) {
+  IcpResult result;
+  const Cloud2& tp = target.points();
+  if (source.empty() || tp.empty()) {
+    result.T_target_source = initial_T_target_source;
+    return result;
+  }
+  Cloud2 moved(source.size());
+  std::vector<Pair> pairs;
+  pairs.reserve(source.size());
+  Rigid T;
+  if (o.backend == Backend::kDraco) {
+    T = IterateDraco(source, target, FromPose(initial_T_target_source), o, &moved, &pairs, &result);
+  } else {
+    detail::BackendAnswer a;
+    switch (o.backend) {
+      case Backend::kPclIcp:
+        a = detail::AlignPclIcp(source, target, initial_T_target_source, o);
+        break;
+      case Backend::kPclGicp:
+        a = detail::AlignPclGicp(source, target, initial_T_target_source, o);
+        break;
+      case Backend::kPclNdt:
+      default:
+        a = detail::AlignPclNdt(source, target, initial_T_target_source, o);
+        break;
+    }
+    result.valid = a.valid;
+    result.converged = a.converged;
+    result.iterations = a.iterations;
+    T = FromPose(a.valid ? a.T_target_source : initial_T_target_source);
+  }
   result.T_target_source = ToPose(T);
-  if (!result.valid || !match()) {
+  if (!result.valid || !Match(source, T, target.tree(), o, &moved, &pairs)) {
     result.valid = false;
     return result;
   }
@@ -223,6 +260,26 @@ IcpResult AlignIcp(const Cloud2& source, const Cloud2& target,
                    const msgs::Pose2& initial_T_target_source, const IcpOptions& options) {
   IcpTarget prepared(target);
   return AlignIcp(source, prepared, initial_T_target_source, options);
+}
+
+const std::vector<std::string>& BackendNames() {
+  static const std::vector<std::string> names{"draco", "pcl_icp", "pcl_gicp", "pcl_ndt"};
+  return names;
+}
+
+const char* BackendName(Backend backend) {
+  return BackendNames()[static_cast<std::size_t>(backend)].c_str();
+}
+
+Backend ParseBackend(std::string_view name) {
+  const auto& names = BackendNames();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (name == names[i]) return static_cast<Backend>(i);
+  }
+  std::string choices;
+  for (const auto& n : names) choices += (choices.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("registration back end '" + std::string(name) +
+                              "' is not one of: " + choices);
 }
 
 Cloud2 ToCloud(const std::vector<msgs::Point2>& points) {

@@ -49,9 +49,16 @@ class IcpOdometryComponent final : public graph::Component {
     spec.Param("trim_fraction", &o_.icp.trim_fraction,
                {"ICP keeps this fraction of the closest pairs", "", 0.01, 1.0, {}});
     spec.Param("max_iterations", &o_.icp.max_iterations, {"ICP iterations", "", 1.0, 1000.0, {}});
+    spec.Param("backend", &backend_,
+               {.doc = "registration back end: draco's 2D ICP, or PCL's ICP (2D), GICP or NDT "
+                       "(3D with z = 0, projected to SE(2)); docs/benchmarks.md compares them",
+                .choices = BackendNames()});
+    spec.Param("ndt_resolution_m", &o_.icp.ndt_resolution_m,
+               {.doc = "pcl_ndt: voxel size", .unit = "m", .min = 0.05});
   }
   Status Start(Context&) override {
     o_.icp.metric = metric_ == "point_to_line" ? Metric::kPointToLine : Metric::kPointToPoint;
+    o_.icp.backend = ParseBackend(backend_);
     matcher_ = SequentialScanMatcher(o_);
     return Status::Ok();
   }
@@ -65,6 +72,7 @@ class IcpOdometryComponent final : public graph::Component {
  private:
   SequentialOptions o_;
   std::string metric_ = "point_to_point";
+  std::string backend_ = "draco";
   SequentialScanMatcher matcher_;
   graph::In<msgs::Keyframe> keyframe_;
   graph::Out<msgs::SequentialFactor> factor_;

@@ -216,16 +216,17 @@ std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::s
     const eval::Se2 T = eval::Ate(est, truth).T_truth_estimate;
     for (const auto& p : eval::Transform(T, est)) layer.estimate.push_back({p.x_m, p.y_m});
     for (const auto& p : truth) layer.truth.push_back({p.x_m, p.y_m});
-    const fs::path ply = dir / (r.robot + ".map.ply");
-    if (fs::exists(ply)) {
+    const std::string cloud = MapCloudPath(dir.string(), r.robot);
+    if (!cloud.empty()) {
       const double c = std::cos(T.yaw_rad), s = std::sin(T.yaw_rad);
-      for (const auto& p : ReadPlyXy(ply.string())) {
+      for (const auto& p : ReadMapXy(cloud)) {
         layer.cloud.push_back({c * p.x - s * p.y + T.x_m, s * p.x + c * p.y + T.y_m});
       }
     }
     map.robots.push_back(std::move(layer));
   }
   RenderTeamMap(map, (dir / map_png).string());
+  WriteTeamCloud(map, (dir / fs::path(map_png).replace_extension(".pcd")).string());
   out.push_back(
       {map_png, std::string(map_png == "team_map.png" ? "Team map" : "Local maps") +
                     ": each robot's local-SLAM trajectory (solid, aligned to ground truth by "

@@ -118,9 +118,9 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
       eval::Se2 T_M_j;
       if (j != m && own[j].size() >= 2) T_M_j = eval::AlignUmeyama(own[j], placed[j]);
       const eval::Se2 T = Compose(T_world_M, T_M_j);
-      const fs::path ply = dir / (t.team[j] + ".map.ply");
-      if (fs::exists(ply)) {
-        for (const auto& p : ReadPlyXy(ply.string())) layer.cloud.push_back(Apply(T, p.x, p.y));
+      const std::string cloud = MapCloudPath(dir.string(), t.team[j]);
+      if (!cloud.empty()) {
+        for (const auto& p : ReadMapXy(cloud)) layer.cloud.push_back(Apply(T, p.x, p.y));
       }
       for (auto o : ReadObjects(dir / (t.team[j] + ".objects.csv"))) {
         o.centre = Apply(T, o.centre.x, o.centre.y);
@@ -169,6 +169,7 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
   }
   if (!map.robots.empty()) {
     RenderTeamMap(map, (dir / "team_map.png").string());
+    WriteTeamCloud(map, (dir / "team_map.pcd").string());
     out.push_back(
         {"team_map.png",
          "Team map in " + M + "'s map frame (" + std::to_string(placed_count) + " of " +

@@ -13,6 +13,7 @@
 #include "draco/graph/executor.hpp"
 #include "draco/msgs/map.hpp"
 #include "draco/msgs/sensors.hpp"
+#include "draco/pointcloud_io/pointcloud_io.hpp"
 #include "draco/slam/local_slam.hpp"
 
 namespace draco::slam {
@@ -148,8 +149,12 @@ class LocalSlamComponent final : public graph::Component {
     spec.Param(
         "landmark_cauchy_scale", &o_.landmark_cauchy_scale,
         {.doc = "Cauchy loss on landmark observations (0: none)", .unit = "sigma", .min = 0});
+    spec.Param("pcd_encoding", &pcd_encoding_name_,
+               {.doc = "DATA of the map.pcd written on Stop (PCL's writer)",
+                .choices = {"binary", "binary_compressed", "ascii"}});
   }
   Status Start(Context&) override {
+    pcd_encoding_ = pointcloud_io::ParsePcdEncoding(pcd_encoding_name_);
     slam_ = LocalSlam(o_);
     return Status::Ok();
   }
@@ -194,25 +199,7 @@ class LocalSlamComponent final : public graph::Component {
                     l.accepted ? 1 : 0);
       loops += line;
     }
-    std::string ply;
     const auto points = slam_.MapPoints();
-    ply = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(points.size()) +
-          "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
-    for (const auto& p : points) {
-      char line[64];
-      std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
-      ply += line;
-    }
-    std::string pcd =
-        "# .PCD v0.7 - draco local map (map frame, metres)\nVERSION 0.7\nFIELDS x y z\n"
-        "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " +
-        std::to_string(points.size()) + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " +
-        std::to_string(points.size()) + "\nDATA ascii\n";
-    for (const auto& p : points) {
-      char line[64];
-      std::snprintf(line, sizeof(line), "%.3f %.3f 0\n", p.x_m, p.y_m);
-      pcd += line;
-    }
     if (o_.landmarks) {
       std::string csv =
           "id,x_m,y_m,observations,first_keyframe,last_keyframe,in_graph,unstable,radius_m,"
@@ -240,12 +227,17 @@ class LocalSlamComponent final : public graph::Component {
     }
     for (const auto& [name, text] :
          {std::pair<std::string, std::string>{"pose_graph.g2o", slam_.ToG2oText()},
-          {"intra_loops.csv", loops},
-          {"map.ply", ply},
-          {"map.pcd", pcd}}) {
+          {"intra_loops.csv", loops}}) {
       if (!graph::WriteFileAtomically(OutPath(ctx, prefix_, name), text)) {
         return Status::Fatal("cannot write " + OutPath(ctx, prefix_, name));
       }
+    }
+    // The point-cloud map, as PCL writes it (binary PCD and binary PLY: docs/results.md).
+    try {
+      pointcloud_io::WritePcd(OutPath(ctx, prefix_, "map.pcd"), points, pcd_encoding_);
+      pointcloud_io::WritePly(OutPath(ctx, prefix_, "map.ply"), points);
+    } catch (const std::exception& e) {
+      return Status::Fatal(e.what());
     }
     return Status::Ok();
   }
@@ -269,6 +261,8 @@ class LocalSlamComponent final : public graph::Component {
 
   LocalSlamOptions o_;
   std::string prefix_;
+  std::string pcd_encoding_name_ = "binary";
+  pointcloud_io::PcdEncoding pcd_encoding_ = pointcloud_io::PcdEncoding::kBinary;
   LocalSlam slam_;
   int loops_accepted_ = 0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;

@@ -2,8 +2,15 @@
 // point-to-line), the overlap ratio, and a covariance estimated from the match itself.
 // Transforms are named by frames: T_target_source maps source points into the target
 // frame. No runtime dependency.
+//
+// Registration back ends (IcpOptions::backend): draco's own 2D ICP (the default), or PCL's
+// ICP, GICP or NDT. PCL is used in src/pcl_*.cpp only (one translation unit per back end);
+// this header stays plain C++.
 #pragma once
 
+#include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "draco/icp/kdtree2.hpp"
@@ -13,8 +20,31 @@ namespace draco::icp {
 
 enum class Metric { kPointToPoint, kPointToLine };
 
+// Who computes the alignment. Whatever the back end, the result's covariance, rmse, overlap
+// and validity are draco's, computed the same way on the final pose (AlignIcp below), so the
+// gates downstream see comparable numbers.
+//  kDraco    draco's 2D ICP below (the default).
+//  kPclIcp   pcl::IterativeClosestPoint with pcl::registration::TransformationEstimation2D
+//            (x, y, yaw only), the same trimming (CorrespondenceRejectorTrimmed) and
+//            correspondence distance.
+//  kPclGicp  pcl::GeneralizedIterativeClosestPoint in 3D with z = 0. A planar sonar return is
+//            taken as a vertical wall: each point's covariance is flat across the local line
+//            (its 2D neighbours' principal axis) and wide along it and along z, so GICP's
+//            plane-to-plane term is line-to-line in the plane. The answer is projected to
+//            SE(2): x, y of the translation, yaw of the closest planar rotation to the xy
+//            block; z, roll and pitch are dropped.
+//  kPclNdt   pcl::NormalDistributionsTransform in 3D with z = 0 (voxels ndt_resolution_m;
+//            the flat z extent of each cell is PCL's own eigenvalue floor), projected to
+//            SE(2) as GICP. Uses max_iterations and the convergence translation only.
+enum class Backend { kDraco, kPclIcp, kPclGicp, kPclNdt };
+const char* BackendName(Backend backend);  // "draco", "pcl_icp", "pcl_gicp", "pcl_ndt"
+const std::vector<std::string>& BackendNames();
+// Throws std::invalid_argument naming the choices.
+Backend ParseBackend(std::string_view name);
+
 struct IcpOptions {
-  Metric metric = Metric::kPointToPoint;
+  Metric metric = Metric::kPointToPoint;  // kDraco only
+  Backend backend = Backend::kDraco;
   // Correspondences: the nearest target point, dropped beyond this (the reference searches
   // within 10 m, then its max-distance outlier filter drops pairs beyond 3 m)...
   double max_correspondence_distance_m = 3.0;
@@ -36,6 +66,9 @@ struct IcpOptions {
   int normal_neighbors = 6;
   double min_residual_sigma_m = 0.01;
   double information_regularization = 1e-6;
+  // PCL back ends only.
+  double ndt_resolution_m = 2.0;  // kPclNdt voxel size
+  int gicp_neighbors = 10;        // kPclGicp: neighbours of a point's local line
 };
 
 // The reference's settings (libpointmatcher in Bruce-SLAM), for comparison.
@@ -63,6 +96,12 @@ struct IcpResult {
 // A target cloud prepared once (kd-tree, normals on demand) for many alignments.
 class IcpTarget {
  public:
+  // What a back end other than draco's keeps of the target between alignments (its own
+  // cloud, search tree, voxels); defined in that back end's .cpp file.
+  struct BackendCache {
+    virtual ~BackendCache() = default;
+  };
+
   explicit IcpTarget(Cloud2 points);
   IcpTarget(const IcpTarget&) = delete;
   IcpTarget& operator=(const IcpTarget&) = delete;
@@ -70,6 +109,7 @@ class IcpTarget {
   const KdTree2& tree() const { return tree_; }
   // Unit normal of target point i (principal axis of its neighbourhood), computed on first use.
   const Eigen::Vector2d& Normal(int i, int neighbors);
+  std::unique_ptr<BackendCache>& backend_cache() { return backend_cache_; }
 
  private:
   Cloud2 points_;
@@ -77,6 +117,7 @@ class IcpTarget {
   std::vector<Eigen::Vector2d> normals_;
   std::vector<char> has_normal_;
   std::vector<int> scratch_;
+  std::unique_ptr<BackendCache> backend_cache_;
 };
 
 IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,

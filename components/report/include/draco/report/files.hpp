@@ -1,4 +1,4 @@
-// Small file helpers of the report: atomic writes and the point-cloud reader.
+// Small file helpers of the report: atomic writes and the point-cloud map reader.
 #pragma once
 
 #include <string>
@@ -13,8 +13,17 @@ namespace draco::report {
 // std::runtime_error is thrown.
 void WriteFileAtomically(const std::string& path, const std::string& bytes);
 
-// x, y of every vertex of an ASCII PLY file whose first two vertex properties are x and y
-// (the local map written by slam.LocalSlam). Throws std::runtime_error naming the file.
-std::vector<Xy> ReadPlyXy(const std::string& path);
+// x, y of every point of a point-cloud file, PCD or PLY by its extension, in any encoding
+// PCL reads (the local map slam.LocalSlam writes: pointcloud_io.hpp). Throws
+// std::runtime_error naming the file.
+std::vector<Xy> ReadMapXy(const std::string& path);
+
+// Every robot's point cloud of a team map, in the map's frame (as drawn), as one binary PCD
+// (pcl::io). Throws std::runtime_error naming the file.
+void WriteTeamCloud(const TeamMap& map, const std::string& path);
+
+// The point-cloud map of `robot` in a run folder: <robot>.map.pcd, else <robot>.map.ply; ""
+// when neither exists.
+std::string MapCloudPath(const std::string& dir, const std::string& robot);
 
 }  // namespace draco::report
