@@ -28,6 +28,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <stdexcept>
 #include <thread>
 
 #include "app_version.hpp"
@@ -78,9 +79,38 @@ struct Options {
   double rate = 0.0;  // dds: pace the daemons at N x real time (0: lock-step only)
 };
 
+// A mode's folder (<out>/inproc, <out>/dds) holds one run. An earlier run's files there are
+// removed first: the evaluation reads <robot>.team.<mate>.tum for every teammate, so a file
+// the new run does not write (a teammate it never placed) would be read as this run's. A
+// folder holding anything else is refused, never emptied.
+void PrepareModeFolder(const std::string& dir) {
+  if (!fs::exists(dir)) return;
+  if (!fs::is_directory(dir)) throw std::runtime_error(dir + " exists and is not a folder");
+  if (fs::is_empty(dir)) return;
+  bool earlier_run = false;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    const auto ends = [&](const std::string& tail) {
+      return name.size() >= tail.size() &&
+             name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    earlier_run = earlier_run || ends("runtime_stats.json") || ends(".trajectory.tum") ||
+                  ends(".agent_steps.csv") || ends(".log");
+  }
+  if (!earlier_run) {
+    throw std::runtime_error(dir +
+                             " is not empty and holds no earlier draco-fleet run "
+                             "(no runtime_stats.json, <robot>.trajectory.tum or <robot>.log): "
+                             "give another --out");
+  }
+  Status("draco-fleet: replacing the earlier run in %s\n", dir.c_str());
+  fs::remove_all(dir);
+}
+
 // The in-process team: one graph, every robot prefixed, one deterministic executor.
 int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
                  const std::vector<std::string>& team, const std::string& out_dir) {
+  PrepareModeFolder(out_dir);
   fs::create_directories(out_dir);
   draco::graph::LoadOptions load;
   for (std::size_t i = 0; i < team.size(); ++i) {
@@ -128,6 +158,7 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
 
 // One daemon per robot over DDS; optionally kills one mid-mission and restarts it.
 int RunDds(const Options& o, const std::vector<std::string>& team, const std::string& out_dir) {
+  PrepareModeFolder(out_dir);
   fs::create_directories(out_dir);
   const auto robot_bin = draco::fleet_app::SiblingApp("draco-robot", "fleet").string();
   if (!fs::exists(robot_bin)) {

@@ -287,8 +287,23 @@ int main(int argc, char** argv) {
       std::string mission;  // recorded mission (no generation)
     };
     std::vector<Job> jobs;
-    for (const auto& m : missions) jobs.push_back({fs::path(m).filename().string(), 0, m});
-    for (const auto s : seeds) jobs.push_back({"seed-" + std::to_string(s), s, ""});
+    // A row's name is its folder under --out: a mission folder named "mission" (as
+    // --keep-missions leaves them) takes its parent's name, and a repeated name gets -2, -3.
+    std::map<std::string, int> used;
+    for (const auto& m : missions) {
+      const fs::path path = fs::path(m).lexically_normal();
+      fs::path base = path.filename().empty() ? path.parent_path() : path;
+      std::string name = base.filename().string();
+      if (name == "mission" && !base.parent_path().filename().empty())
+        name = base.parent_path().filename().string();
+      if (const int n = ++used[name]; n > 1) name += "-" + std::to_string(n);
+      jobs.push_back({name, 0, m});
+    }
+    for (const auto s : seeds) {
+      std::string name = "seed-" + std::to_string(s);
+      if (const int n = ++used[name]; n > 1) name += "-" + std::to_string(n);
+      jobs.push_back({name, s, ""});
+    }
     int done = 0;
     for (const auto& job : jobs) {
       const auto t0 = std::chrono::steady_clock::now();
@@ -321,6 +336,7 @@ int main(int argc, char** argv) {
         }
       }
       const std::string run = (dir / "run").string();
+      fs::remove_all(run);  // draco-worlds' own: an earlier run's files must not be judged
       if (w.status == "ok") {
         std::printf("team, ");
         std::fflush(stdout);

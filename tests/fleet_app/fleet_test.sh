@@ -7,6 +7,8 @@
 #    notice the restart and exchange with the new bravo again.
 # 3. SIGTERM stops a daemon cleanly, outputs flushed.
 # 4. A daemon with a robot name the mission lacks exits non-zero with a clear message.
+# 5. A second run into the same --out replaces the earlier run's folder (a stale teammate
+#    trajectory is not judged as this run's); a folder holding other files is refused, untouched.
 set -u
 sim=$1
 fleet=$2
@@ -85,4 +87,19 @@ ls "$work/term" | grep -q partial && fail "SIGTERM: a partial file was left"
 
 out=$("$robot" --mission "$work/m" --robot zulu --out "$work/z" 2>&1) && fail "unknown robot accepted"
 echo "$out" | grep -q "has no robot 'zulu'" || fail "unclear message: $out"
+
+# 5. Run folders.
+echo "0 999 999 0 0 0 0 1" >"$work/both/inproc/alpha.team.stale.tum"
+"$fleet" "$work/m" --mode inproc --out "$work/both" >"$work/again.log" 2>&1 ||
+  { cat "$work/again.log"; fail "second in-process run into the same folder"; }
+grep -q "replacing the earlier run in $work/both/inproc" "$work/again.log" ||
+  fail "the earlier run was not replaced: $(cat "$work/again.log")"
+[ -e "$work/both/inproc/alpha.team.stale.tum" ] && fail "a stale file survived the second run"
+[ -f "$work/both/inproc/alpha.trajectory.tum" ] || fail "the second run wrote no trajectory"
+mkdir -p "$work/foreign/inproc"
+echo "field notes" >"$work/foreign/inproc/notes.txt"
+out=$("$fleet" "$work/m" --mode inproc --out "$work/foreign" 2>&1) &&
+  fail "a folder of other files was run into"
+echo "$out" | grep -q "holds no earlier draco-fleet run" || fail "unclear message: $out"
+[ -f "$work/foreign/inproc/notes.txt" ] || fail "a foreign file was deleted"
 echo ok

@@ -26,4 +26,8 @@ rows=$(awk -F, 'NR > 1 && ($5 == "right" || $5 == "wrong" || $5 == "none")' "$pa
 a=$(grep "^seed-$first," "$pairs")
 b=$(awk -F, 'NR > 1' "$out/b/pairs.csv")
 [ "$a" = "$b" ] || { echo "seed $first differs between two runs:"; echo "$a"; echo "$b"; exit 1; }
+# The world's row too (team, oracle and dead-reckoning ATE, loops, bits), all but wall_s.
+a=$(grep "^seed-$first," "$csv" | rev | cut -d, -f2- | rev)
+b=$(awk -F, 'NR > 1' "$out/b/worlds.csv" | rev | cut -d, -f2- | rev)
+[ "$a" = "$b" ] || { echo "seed $first's row differs between two runs:"; echo "$a"; echo "$b"; exit 1; }
 echo "worlds smoke: $worlds_run worlds, $rows pairs: right $(grep -c ',right,' "$pairs" || true), wrong $(grep -c ',wrong,' "$pairs" || true), none $(grep -c ',none,' "$pairs" || true); seed $first identical twice"
