@@ -170,6 +170,67 @@ TEST(LocalSlam, LoopClosuresRemoveDrift) {
   EXPECT_LT(sum_error_m / n, 0.2);
 }
 
+// The correlative seed search's ambiguity: along one straight wall every shift along it scores
+// as well as the best (runner-up 2 m away = the best score); in a corner a shift of 2 m takes
+// one wall's points off the other (the runner-up, helped by the dilated grid and a rotation,
+// stays below 0.85 of the best).
+TEST(CorrelativeSeedSearch, AWallSlidesACornerDoesNot) {
+  LocalSlamOptions o;  // 0.5 m lattice, +-2.5 m, +-15 deg, runner-up >= 2 m away
+  std::vector<msgs::Point2> wall_target, wall_source, corner_target, corner_source;
+  for (double t = -15.0; t <= 15.0 + 1e-9; t += 0.2) wall_target.push_back({t, 5.0});
+  for (double t = -8.0; t <= 8.0 + 1e-9; t += 0.2) wall_source.push_back({t, 5.0});
+  for (double t = 0.0; t <= 15.0 + 1e-9; t += 0.2) {
+    corner_target.push_back({t, 0.0});
+    if (t > 0) corner_target.push_back({0.0, t});
+  }
+  for (double t = 0.0; t <= 10.0 + 1e-9; t += 0.2) {
+    corner_source.push_back({t, 0.0});
+    if (t > 0) corner_source.push_back({0.0, t});
+  }
+  const SeedSearch wall = CorrelativeSeedSearch(wall_source, wall_target, {0.0, 0.0, 0.0}, o);
+  EXPECT_EQ(wall.best_score, static_cast<int>(wall_source.size()));
+  EXPECT_EQ(wall.runner_up_score, wall.best_score);  // 2 m along the wall: every point on it
+  EXPECT_DOUBLE_EQ(wall.AmbiguityRatio(), 1.0);
+  // The corner, guessed 0.5 m and 2 deg off: every point lands on the target at the best
+  // lattice pose, within one dilated cell (0.75 m) of the truth.
+  const SeedSearch corner =
+      CorrelativeSeedSearch(corner_source, corner_target, {0.5, -0.5, 2 * M_PI / 180}, o);
+  EXPECT_EQ(corner.best_score, static_cast<int>(corner_source.size()));
+  EXPECT_LT(std::hypot(corner.best.x_m, corner.best.y_m), 0.75);
+  EXPECT_LT(std::abs(corner.best.yaw_rad), 2.5 * M_PI / 180);
+  EXPECT_LT(corner.AmbiguityRatio(), 0.85);
+  EXPECT_GT(corner.AmbiguityRatio(), 0.4);
+  // Nothing to score: the guess, ratio 0.
+  const SeedSearch none = CorrelativeSeedSearch({}, corner_target, {1.0, 2.0, 0.1}, o);
+  EXPECT_DOUBLE_EQ(none.best.x_m, 1.0);
+  EXPECT_DOUBLE_EQ(none.AmbiguityRatio(), 0.0);
+}
+
+// The ambiguity test keeps the loops of a world of scattered piles and four walls: drift is
+// still removed, and the loops it drops are counted.
+TEST(LocalSlam, AmbiguityTestKeepsTheLoopsOfADistinctiveWorld) {
+  std::mt19937 rng(3);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  icp::SequentialScanMatcher matcher;
+  LocalSlamOptions o;
+  o.loop_ambiguity_ratio = 0.95;
+  LocalSlam slam(o);
+  int accepted = 0, ambiguous = 0;
+  for (const auto& kf : mission.keyframes) {
+    const auto factor = matcher.AddKeyframe(kf);
+    const StepResult r = slam.AddKeyframe(kf, factor ? &*factor : nullptr);
+    accepted += r.loops_accepted;
+    ambiguous += r.loops_ambiguous;
+  }
+  const double dr_ate = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
+  const double slam_ate = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+  std::printf("ambiguity test 0.95: %d loops accepted, %d dropped; ATE %.2f m (DR %.2f m)\n",
+              accepted, ambiguous, slam_ate, dr_ate);
+  EXPECT_GT(accepted, 3);
+  EXPECT_LT(slam_ate, 0.3 * dr_ate);
+}
+
 TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   std::mt19937 rng(4);
   const World world = MakeWorld(rng);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <sstream>
@@ -42,13 +43,13 @@ pg::Matrix3 Information(const Eigen::Matrix3d& covariance) {
   return out;
 }
 
-// Correlative search for an ICP seed (as in real-time correlative scan matching): the target
-// is rasterised into an occupancy grid dilated by one cell, and every rotation and
-// translation of the source on a lattice around `guess` is scored by the number of source
-// points that land on occupied cells. Returns the best lattice pose.
-msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target,
-                            const msgs::Pose2& guess, const LocalSlamOptions& o) {
-  if (source.empty() || target.empty()) return guess;
+// Correlative search for an ICP seed (as in real-time correlative scan matching): see
+// CorrelativeSeedSearch in local_slam.hpp.
+SeedSearch CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target,
+                           const msgs::Pose2& guess, const LocalSlamOptions& o) {
+  SeedSearch out;
+  out.best = guess;
+  if (source.empty() || target.empty()) return out;
   const double res = o.seed_resolution_m;
   double min_x = target[0].x(), max_x = min_x, min_y = target[0].y(), max_y = min_y;
   for (const auto& p : target) {
@@ -72,8 +73,10 @@ msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target
   }
   const int nt = static_cast<int>(std::round(o.seed_search_m / res));
   const int nr = static_cast<int>(std::round(o.seed_search_rad / o.seed_angle_step_rad));
-  msgs::Pose2 best = guess;
-  int best_score = -1;
+  const int side = 2 * nt + 1;
+  // Per translation of the lattice, the best score over the rotations (for the runner-up).
+  std::vector<int> best_over_rotations(static_cast<std::size_t>(side) * side, 0);
+  int best_score = -1, best_ix = 0, best_iy = 0;
   std::vector<double> rx(source.size()), ry(source.size());
   for (int ir = -nr; ir <= nr; ++ir) {
     const double yaw = guess.yaw_rad + ir * o.seed_angle_step_rad;
@@ -91,26 +94,78 @@ msgs::Pose2 CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target
           if (x >= 0 && y >= 0 && x < w && y < h)
             score += grid[static_cast<std::size_t>(y) * w + x];
         }
+        int& cell = best_over_rotations[static_cast<std::size_t>(iy + nt) * side + (ix + nt)];
+        cell = std::max(cell, score);
         // Ties keep the pose closest to the guess (visited first from the centre is not
         // guaranteed, so compare the offset explicitly).
         const bool closer =
             score == best_score &&
             (std::abs(ix) + std::abs(iy) + std::abs(ir)) <
-                (std::abs(static_cast<int>(std::round((best.x_m - guess.x_m) / res))) +
-                 std::abs(static_cast<int>(std::round((best.y_m - guess.y_m) / res))) +
+                (std::abs(static_cast<int>(std::round((out.best.x_m - guess.x_m) / res))) +
+                 std::abs(static_cast<int>(std::round((out.best.y_m - guess.y_m) / res))) +
                  std::abs(static_cast<int>(
-                     std::round((best.yaw_rad - guess.yaw_rad) / o.seed_angle_step_rad))));
+                     std::round((out.best.yaw_rad - guess.yaw_rad) / o.seed_angle_step_rad))));
         if (score > best_score || closer) {
           best_score = score;
-          best = {guess.x_m + ix * res, guess.y_m + iy * res, yaw};
+          best_ix = ix;
+          best_iy = iy;
+          out.best = {guess.x_m + ix * res, guess.y_m + iy * res, yaw};
         }
       }
     }
   }
-  return best;
+  out.best_score = std::max(best_score, 0);
+  // The runner-up is measured from the centre of the translations that reach the best score
+  // (the dilated grid gives a right match a plateau 3-4 cells wide, and `best` may lie on
+  // its edge): the best-scoring translation nearest to their mean.
+  double mx = 0.0, my = 0.0;
+  int count = 0;
+  const auto score_at = [&](int ix, int iy) {
+    return best_over_rotations[static_cast<std::size_t>(iy + nt) * side + (ix + nt)];
+  };
+  for (int iy = -nt; iy <= nt; ++iy) {
+    for (int ix = -nt; ix <= nt; ++ix) {
+      if (score_at(ix, iy) < best_score) continue;
+      mx += ix;
+      my += iy;
+      ++count;
+    }
+  }
+  if (count > 0) {
+    mx /= count;
+    my /= count;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int iy = -nt; iy <= nt; ++iy) {
+      for (int ix = -nt; ix <= nt; ++ix) {
+        const double d = std::hypot(ix - mx, iy - my);
+        if (score_at(ix, iy) < best_score || d >= nearest) continue;
+        nearest = d;
+        best_ix = ix;
+        best_iy = iy;
+      }
+    }
+  }
+  for (int iy = -nt; iy <= nt; ++iy) {
+    for (int ix = -nt; ix <= nt; ++ix) {
+      if (std::hypot(ix - best_ix, iy - best_iy) * res < o.loop_ambiguity_offset_m) continue;
+      out.runner_up_score =
+          std::max(out.runner_up_score,
+                   best_over_rotations[static_cast<std::size_t>(iy + nt) * side + (ix + nt)]);
+    }
+  }
+  return out;
 }
 
 }  // namespace
+
+SeedSearch CorrelativeSeedSearch(const std::vector<msgs::Point2>& source_kf,
+                                 const std::vector<msgs::Point2>& target_kf,
+                                 const msgs::Pose2& guess, const LocalSlamOptions& options) {
+  icp::Cloud2 source, target;
+  for (const auto& p : source_kf) source.emplace_back(p.x_m, p.y_m);
+  for (const auto& p : target_kf) target.emplace_back(p.x_m, p.y_m);
+  return CorrelativeSeed(source, target, guess, options);
+}
 
 std::vector<LandmarkObservation> ExtractLandmarkObservations(
     const std::vector<msgs::Point2>& points_kf, const LocalSlamOptions& o) {
@@ -219,6 +274,7 @@ struct LocalSlam::Impl {
   std::vector<LoopRecord> loops;
   std::map<std::uint64_t, std::size_t> loop_by_id;
   std::uint64_t next_loop_id = 0;
+  int ambiguous_loops = 0;  // candidates dropped by the ambiguity test, this step
 
   // Point landmarks; the index is the graph's point id.
   struct LandmarkSighting {
@@ -459,8 +515,15 @@ struct LocalSlam::Impl {
         }
       }
       const msgs::Pose2 guess = consistency::Between(T_map_j, T_map_k);
-      const msgs::Pose2 seed =
-          o.seed_search_m > 0 ? CorrelativeSeed(source, target, guess, o) : guess;
+      msgs::Pose2 seed = guess;
+      if (o.seed_search_m > 0) {
+        const SeedSearch search = CorrelativeSeed(source, target, guess, o);
+        if (o.loop_ambiguity_ratio > 0 && search.AmbiguityRatio() >= o.loop_ambiguity_ratio) {
+          ++ambiguous_loops;
+          continue;
+        }
+        seed = search.best;
+      }
       const icp::IcpResult r = icp::AlignIcp(source, target, seed);
       if (!r.valid || r.overlap_ratio < o.loop_min_overlap) continue;
       if (o.loop_max_rmse_m > 0 && r.rmse_m > o.loop_max_rmse_m) continue;
@@ -563,6 +626,8 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
 
   const auto proposed = m.ProposeLoops(k);
   result.loops_registered = static_cast<int>(proposed.size());
+  result.loops_ambiguous = m.ambiguous_loops;
+  m.ambiguous_loops = 0;
   if (!proposed.empty()) {
     const consistency::Decision d = m.pcm.Add(proposed, m.chain);
     for (std::uint64_t id : d.newly_accepted) {

@@ -11,6 +11,7 @@
 #include "draco/eval/trajectory.hpp"
 #include "draco/graph/component.hpp"
 #include "draco/graph/executor.hpp"
+#include "draco/log/log.hpp"
 #include "draco/msgs/map.hpp"
 #include "draco/msgs/sensors.hpp"
 #include "draco/pointcloud_io/pointcloud_io.hpp"
@@ -89,6 +90,13 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "loop covariance times (1/overlap)^power (0: off)", .min = 0});
     spec.Param("loop_max_rmse_m", &o_.loop_max_rmse_m,
                {.doc = "reject loops with a larger ICP rmse (0: no gate)", .unit = "m", .min = 0});
+    spec.Param("loop_ambiguity_ratio", &o_.loop_ambiguity_ratio,
+               {.doc = "drop a loop whose correlative runner-up (a pose at least "
+                       "loop_ambiguity_offset_m away) scores this fraction of the best (0: off)",
+                .min = 0,
+                .max = 1});
+    spec.Param("loop_ambiguity_offset_m", &o_.loop_ambiguity_offset_m,
+               {.doc = "how far from the best pose a runner-up must be", .unit = "m", .min = 0});
     spec.Param("loop_max_yaw_rad", &o_.loop_max_yaw_rad,
                {.doc = "candidate heading difference", .unit = "rad", .min = 0});
     spec.Param("loop_min_points", &o_.loop_min_points,
@@ -173,6 +181,7 @@ class LocalSlamComponent final : public graph::Component {
       try {
         const StepResult r = slam_.AddKeyframe(*kf, factor);
         loops_accepted_ += r.loops_accepted;
+        loops_ambiguous_ += r.loops_ambiguous;
       } catch (const std::exception& e) {
         pending_keyframes_.pop_front();
         return Status::Error(e.what());
@@ -185,6 +194,10 @@ class LocalSlamComponent final : public graph::Component {
     return Status::Ok();
   }
   Status Stop(Context& ctx) override {
+    if (loops_ambiguous_ > 0) {
+      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_ambiguous_) +
+                " loop candidates dropped as ambiguous (loop_ambiguity_ratio)");
+    }
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;
     for (const auto& k : slam_.Trajectory()) {
@@ -265,6 +278,7 @@ class LocalSlamComponent final : public graph::Component {
   pointcloud_io::PcdEncoding pcd_encoding_ = pointcloud_io::PcdEncoding::kBinary;
   LocalSlam slam_;
   int loops_accepted_ = 0;
+  int loops_ambiguous_ = 0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;
   std::map<int, graph::Stamped<msgs::SequentialFactor>> pending_factors_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -49,8 +49,8 @@ struct LocalSlamOptions {
 
   bool loop_closure = true;
   int loop_min_index_gap = 8;  // keyframes at least this far apart
-  // Since session 4 (docs/local-slam.md, "Loop candidates"): 20 m, any heading, 20 points
-  // (before: 10 m, 60 deg, 50 points).
+  // Candidates within 20 m at any heading, keyframes of at least 20 points (docs/local-slam.md,
+  // "Loop candidates": 10 m, 60 deg, 50 points lost the loops across the lobes).
   double loop_max_distance_m = 20.0;
   double loop_max_yaw_rad = std::numbers::pi;  // any heading difference
   int loop_min_points = 20;
@@ -79,6 +79,14 @@ struct LocalSlamOptions {
   double loop_max_rmse_m = 0.0;  // reject loops whose ICP rmse exceeds this (0: no gate)
   // Source: keyframe k and this many keyframes before it, in k's frame (0: keyframe k only).
   int loop_source_half_width = 0;
+  // Loop ambiguity (0: off). The correlative seed search scores every lattice pose; the
+  // runner-up is the best score of a pose at least loop_ambiguity_offset_m from the best ones
+  // (any rotation; CorrelativeSeedSearch). A loop whose runner-up reaches loop_ambiguity_ratio of the best score is
+  // dropped: along one straight wall the scan slides, and a row of piles matches itself
+  // shifted by its spacing, so ICP converges to wherever the seed lands and the floored
+  // loop covariance (0.1 m) pins the map there.
+  double loop_ambiguity_ratio = 0.0;
+  double loop_ambiguity_offset_m = 2.0;
 
   // Sparse point landmarks (on by default since docs/local-slam.md "Sparse point landmarks":
   // every robot of both default missions better): small isolated objects (boulders, debris) give a
@@ -178,6 +186,7 @@ struct LoopRecord {
 struct StepResult {
   int loops_registered = 0;  // candidates that passed ICP and the gates
   int loops_accepted = 0;    // newly accepted by PCM and added to the graph
+  int loops_ambiguous = 0;   // candidates dropped by the ambiguity test (loop_ambiguity_ratio)
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
@@ -186,6 +195,25 @@ struct StepResult {
 // inflated by the residual (rmse) and overlap terms of the options.
 msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double rmse_m,
                                  double overlap_ratio, const LocalSlamOptions& options);
+
+// Correlative search for a loop's ICP seed: the target rasterised at seed_resolution_m
+// (occupied cells dilated by one), every pose of the lattice around `guess` (translations
+// within seed_search_m, rotations within seed_search_rad) scored by the source points that land
+// on occupied cells. `best` is the top pose (ties: the one nearest the guess); runner_up_score
+// the top score of a pose at least loop_ambiguity_offset_m from the centre of the top-scoring
+// translations (a right match scores its best on a plateau 3-4 cells wide: the dilation).
+struct SeedSearch {
+  msgs::Pose2 best;
+  int best_score = 0;
+  int runner_up_score = 0;
+  // runner_up_score / best_score (0 when nothing scored).
+  double AmbiguityRatio() const {
+    return best_score > 0 ? static_cast<double>(runner_up_score) / best_score : 0.0;
+  }
+};
+SeedSearch CorrelativeSeedSearch(const std::vector<msgs::Point2>& source_kf,
+                                 const std::vector<msgs::Point2>& target_kf,
+                                 const msgs::Pose2& guess, const LocalSlamOptions& options);
 
 class LocalSlam {
  public:
