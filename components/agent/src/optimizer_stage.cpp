@@ -1,0 +1,434 @@
+// Stage 5, the two-step pose graph optimisation (stages.hpp): placing each teammate from the
+// accepted loops (with the map check), then the team graph.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "draco/agent/stages.hpp"
+#include "stage_util.hpp"
+
+namespace draco::agent {
+
+using namespace stage_util;  // NOLINT(google-build-using-namespace): private helpers
+
+OptimizerStage::OptimizerStage(const OptimizerStageOptions& options)
+    : options_(options), poses_(options.max_teammate_keyframes), last_optimize_s_(kNever) {
+  options_.two_step.solver.num_threads = 1;  // bit-identical solves
+}
+
+void OptimizerStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
+  if (!roster_.Note(options_.robot_id, poses.header, [this](int r) { Forget(r); })) return;
+  poses_.OnKeyframePoses(poses);
+  graph_changed_[poses.header.robot_id] = true;
+  ++poses_seq_[poses.header.robot_id];
+}
+
+void OptimizerStage::OnTeammateTransforms(const msgs::TeammateTransforms& t) {
+  const int sender = t.header.robot_id;
+  if (sender == options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, t.header, [this](int r) { Forget(r); })) return;
+  std::vector<msgs::Heartbeat::Transform> kept;
+  for (const auto& e : t.transforms) {
+    if (e.robot_id != sender && Finite(e.T_sender_robot)) kept.push_back(e);
+  }
+  auto& held = shared_[sender];
+  if (held == kept) return;
+  for (const auto& e : held) graph_changed_[e.robot_id] = true;
+  for (const auto& e : kept) graph_changed_[e.robot_id] = true;
+  held = std::move(kept);
+}
+
+void OptimizerStage::OnTeammateObjectMap(const msgs::FleetHeader& header,
+                                         const msgs::ObjectMap& map) {
+  if (header.robot_id == options_.robot_id) return;
+  if (!roster_.Note(options_.robot_id, header, [this](int r) { Forget(r); })) return;
+  teammate_objects_[header.robot_id] = {header.time_s, map};
+}
+
+std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const {
+  std::vector<msgs::Heartbeat::Transform> out;
+  for (const int robot : loop_verified_) {
+    const auto it = estimate_.T_own_teammate.find(robot);
+    if (it != estimate_.T_own_teammate.end()) out.push_back({robot, it->second});
+  }
+  return out;
+}
+
+void OptimizerStage::Forget(int robot) {
+  if (robot == options_.robot_id) return;
+  shared_.erase(robot);
+  roster_.Erase(robot);
+  poses_.Forget(robot);
+  graph_changed_.erase(robot);
+  match_counts_.erase(robot);
+  teammate_objects_.erase(robot);
+  poses_seq_.erase(robot);
+  mate_coverage_.erase(robot);
+  estimate_.trajectories.erase(robot);
+  estimate_.T_own_teammate.erase(robot);
+  own_graph_changed_ = true;  // the estimate is recomputed without it
+}
+
+bool OptimizerStage::Contested(int robot,
+                               const std::vector<msgs::InterRobotLoop>& candidates) const {
+  const OptimizerStageOptions& o = options_;
+  if (o.competitor_ratio <= 0.0) return false;
+  const auto* held = poses_.Find(robot);
+  if (!held) return false;
+  // The map-to-map transform each candidate with `robot` implies.
+  struct Implied {
+    const msgs::InterRobotLoop* loop;
+    Pose2 T;
+  };
+  std::vector<Implied> accepted, others;
+  for (const auto& l : candidates) {
+    if (l.teammate_robot != robot) continue;
+    const auto own = own_.entries().find(l.own_keyframe);
+    if (own == own_.entries().end() || !own->second.has_pose) continue;
+    if (l.teammate_keyframe < 0 ||
+        l.teammate_keyframe >= static_cast<int>(held->keyframes.size()) ||
+        !held->known[static_cast<std::size_t>(l.teammate_keyframe)])
+      continue;
+    const Pose2 T = reg::Compose(
+        reg::Compose(own->second.T_map_kf, l.T_ownkf_teammatekf),
+        reg::Inverse(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf));
+    (l.flags & msgs::kLoopAccepted ? accepted : others).push_back({&l, T});
+  }
+  if (accepted.empty()) return false;
+  // The teammate's keyframe centroid: where a transform error shows.
+  msgs::Point2 c{0.0, 0.0};
+  int n = 0;
+  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+    if (!held->known[k]) continue;
+    c.x_m += held->keyframes[k].T_map_kf.x_m;
+    c.y_m += held->keyframes[k].T_map_kf.y_m;
+    ++n;
+  }
+  if (n > 0) {
+    c.x_m /= n;
+    c.y_m /= n;
+  }
+  const auto far_from_accepted = [&](const Pose2& T) {
+    for (const auto& a : accepted) {
+      const auto [m, rad] = TransformGap(T, a.T, c);
+      if (m <= o.competitor_distinct_m && rad <= o.competitor_distinct_rad) return false;
+    }
+    return true;
+  };
+  std::vector<const Implied*> rivals;
+  for (const auto& x : others) {
+    if (far_from_accepted(x.T)) rivals.push_back(&x);
+  }
+  std::vector<const msgs::InterRobotLoop*> acc;
+  for (const auto& a : accepted) acc.push_back(a.loop);
+  const int support = DistinctKeyframes(acc);
+  const double needed = std::max<double>(o.min_distinct_keyframes, o.competitor_ratio * support);
+  // Each rival as the seed of a group of the rivals that agree with it.
+  for (const auto* seed : rivals) {
+    std::vector<const msgs::InterRobotLoop*> group;
+    for (const auto* x : rivals) {
+      const auto [m, rad] = TransformGap(x->T, seed->T, c);
+      if (m <= o.competitor_agree_m && rad <= o.competitor_agree_rad) group.push_back(x->loop);
+    }
+    if (DistinctKeyframes(group) >= needed) return true;
+  }
+  return false;
+}
+
+const OptimizerStage::OwnView& OptimizerStage::UpdateOwnView() {
+  if (own_view_.version == own_.version()) return own_view_;
+  std::vector<Pose2> poses;
+  std::vector<Point2> points;
+  for (const auto& [k, e] : own_.entries()) {
+    if (!e.has_pose) continue;
+    poses.push_back(e.T_map_kf);
+    if (!e.has_points) continue;
+    for (const auto& p : e.points_kf) points.push_back(reg::Apply(e.T_map_kf, p));
+  }
+  own_view_.version = own_.version();
+  own_view_.coverage = objects::Coverage(poses, options_.map_coverage);
+  own_view_.points = objects::PointCounts(points);
+  return own_view_;
+}
+
+std::optional<MapCheck> OptimizerStage::CheckMaps(
+    int robot, const std::vector<msgs::InterRobotLoop>& candidates, const OwnView& own_view) const {
+  const auto map = teammate_objects_.find(robot);
+  const auto* held = poses_.Find(robot);
+  if (map == teammate_objects_.end() || map->second.map.objects.empty() ||
+      own_objects_.objects.empty() || held == nullptr) {
+    return std::nullopt;
+  }
+  // T_own_teammate from the accepted loops: the teammate's keyframes (its map frame) against
+  // where the loops put them from the own keyframes.
+  std::vector<Pose2> local, placed;
+  for (const auto& l : candidates) {
+    if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot != robot) continue;
+    const auto own = own_.entries().find(l.own_keyframe);
+    if (own == own_.entries().end() || !own->second.has_pose || l.teammate_keyframe < 0 ||
+        l.teammate_keyframe >= static_cast<int>(held->keyframes.size()) ||
+        !held->known[static_cast<std::size_t>(l.teammate_keyframe)]) {
+      continue;
+    }
+    local.push_back(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf);
+    placed.push_back(reg::Compose(own->second.T_map_kf, l.T_ownkf_teammatekf));
+  }
+  const auto T = AlignSe2(local, placed);
+  if (!T) return std::nullopt;
+  MapCheck out;
+  out.T_own_teammate = *T;
+  if (const auto prior = objects::HeadingYawPrior(own_objects_, map->second.map)) {
+    out.heading_gap_rad = std::remainder(T->yaw_rad - *prior, 2.0 * M_PI);
+    if (!objects::HeadingAllows(prior, T->yaw_rad, options_.max_heading_gap_rad)) {
+      out.contradicted = true;
+      return out;
+    }
+  }
+  if (options_.max_map_miss_fraction >= 1.0) return out;
+  auto& cached = mate_coverage_[robot];
+  const auto seq = poses_seq_.find(robot);
+  const std::uint64_t poses_seq = seq == poses_seq_.end() ? 0 : seq->second;
+  if (cached.poses_seq != poses_seq || cached.map_time_s != map->second.time_s) {
+    std::vector<Pose2> mate_poses;
+    for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+      // The keyframes the teammate's map was made from (not those it has seen since).
+      if (held->known[k] && held->keyframes[k].time_s <= map->second.time_s)
+        mate_poses.push_back(held->keyframes[k].T_map_kf);
+    }
+    cached = {poses_seq, map->second.time_s, objects::Coverage(mate_poses, options_.map_coverage)};
+  }
+  const objects::Coverage& mate_coverage = cached.coverage;
+  out.agreement = objects::CompareObjectMaps(own_objects_, map->second.map, *T, own_view.coverage,
+                                             mate_coverage, options_.map_margin_m);
+  out.support = objects::SupportByPoints(map->second.map, *T, own_view.points, own_view.coverage,
+                                         options_.map_margin_m, options_.map_min_points);
+  out.contradicted = out.support.Misses() >= options_.min_map_misses &&
+                     out.support.MissFraction() > options_.max_map_miss_fraction;
+  return out;
+}
+
+void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>& candidates,
+                          const msgs::MapMatches& matches, msgs::TeamStepStats* st) {
+  WallTimer wall(st);
+  const int own_id = options_.robot_id;
+  if (own_.version() != seen_own_version_) {
+    own_graph_changed_ = true;
+    seen_own_version_ = own_.version();
+  }
+  // Teammates heard of by any stage (a new one changes the graphs), new matches.
+  for (const auto& [robot, g] : matches.guesses) {
+    if (robot == own_id) continue;
+    if (!graph_changed_.count(robot)) graph_changed_[robot] = true;
+    auto& count = match_counts_[robot];
+    if (g.matched && g.match_count != count) {
+      count = g.match_count;
+      graph_changed_[robot] = true;
+    }
+  }
+  std::set<std::uint64_t> accepted;
+  for (const auto& l : candidates) {
+    if (l.flags & msgs::kLoopAccepted) accepted.insert(l.id);
+  }
+  if (accepted != accepted_ids_) accepted_changed_ = true;
+  accepted_ids_ = std::move(accepted);
+  // Teammates with enough independent accepted loops (options: min_teammate_loops).
+  std::set<int> loop_verified;
+  {
+    struct Evidence {
+      int loops = 0;
+      std::set<int> own_kfs, mate_kfs;
+    };
+    std::map<int, Evidence> evidence;
+    for (const auto& l : candidates) {
+      if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot == own_id) continue;
+      auto& e = evidence[l.teammate_robot];
+      ++e.loops;
+      e.own_kfs.insert(l.own_keyframe);
+      e.mate_kfs.insert(l.teammate_keyframe);
+    }
+    estimate_.map_checks.clear();
+    for (const auto& [robot, e] : evidence) {
+      if (e.loops < options_.min_teammate_loops ||
+          static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
+          static_cast<int>(e.mate_kfs.size()) < options_.min_distinct_keyframes ||
+          Contested(robot, candidates)) {
+        continue;
+      }
+      if (options_.max_map_miss_fraction < 1.0 || options_.max_heading_gap_rad > 0.0) {
+        if (const auto check = CheckMaps(robot, candidates, UpdateOwnView())) {
+          estimate_.map_checks[robot] = *check;
+          if (check->contradicted) continue;
+        }
+      }
+      loop_verified.insert(robot);
+    }
+  }
+  const auto direct = [&](int robot) -> std::optional<Pose2> {
+    const Pose2* g = msgs::GuessOf(matches, robot);
+    return g ? std::optional<Pose2>(*g) : std::nullopt;
+  };
+  // Robots without accepted loops of their own, placed through a teammate that has them and
+  // shared its estimate (the lowest sender id wins).
+  std::map<int, Pose2> chained;
+  for (const auto& [sender, entries] : shared_) {
+    if (!loop_verified.count(sender)) continue;
+    const auto it = estimate_.T_own_teammate.find(sender);
+    const auto g =
+        it != estimate_.T_own_teammate.end() ? std::optional<Pose2>(it->second) : direct(sender);
+    if (!g) continue;
+    for (const auto& e : entries) {
+      if (e.robot_id == own_id || loop_verified.count(e.robot_id) || chained.count(e.robot_id))
+        continue;
+      const Pose2 T = reg::Compose(*g, e.T_sender_robot);
+      const auto map = teammate_objects_.find(e.robot_id);
+      if (map != teammate_objects_.end() &&
+          !objects::HeadingAllows(objects::HeadingYawPrior(own_objects_, map->second.map),
+                                  T.yaw_rad, options_.max_heading_gap_rad))
+        continue;
+      chained[e.robot_id] = T;
+    }
+  }
+  const auto guess = [&](int robot) -> std::optional<Pose2> {
+    const auto it = chained.find(robot);
+    return it != chained.end() ? std::optional<Pose2>(it->second) : direct(robot);
+  };
+  // A teammate verified or withdrawn (the filter retracted its loops) is placed anew now.
+  bool graphs_changed = own_graph_changed_ || loop_verified != loop_verified_;
+  if (loop_verified != loop_verified_) accepted_changed_ = true;
+  loop_verified_ = loop_verified;
+
+  for (const auto& [robot, changed] : graph_changed_) graphs_changed = graphs_changed || changed;
+  std::vector<Pose2> own_poses;
+  std::vector<bool> own_real;
+  std::vector<double> own_times;
+  own_.Chain(&own_poses, &own_real, &own_times);
+  if (own_poses.empty()) return;
+
+  team::TeamProblem problem;
+  team::RobotGraph own_graph;
+  const pg::Matrix3 own_chain_info =
+      Information(options_.own_chain_sigma_xy_m, options_.own_chain_sigma_yaw_rad);
+  for (std::size_t k = 0; k < own_poses.size(); ++k) {
+    own_graph.poses.push_back(ToPg(own_poses[k]));
+    if (k > 0) {
+      team::ChainFactor f;
+      f.from = static_cast<int>(k - 1);
+      f.to = static_cast<int>(k);
+      f.T_from_to = ToPg(reg::Between(own_poses[k - 1], own_poses[k]));
+      f.information = own_chain_info;
+      own_graph.factors.push_back(f);
+    }
+  }
+  problem.robots[own_id] = std::move(own_graph);
+  const pg::Matrix3 chain_info =
+      Information(options_.two_step.chain_sigma_xy_m, options_.two_step.chain_sigma_yaw_rad);
+  for (const auto& [robot, held] : poses_.all()) {
+    const auto g = guess(robot);
+    if (!g || held.keyframes.empty()) continue;
+    team::RobotGraph rg;
+    for (std::size_t k = 0; k < held.keyframes.size(); ++k) {
+      rg.poses.push_back(ToPg(held.keyframes[k].T_map_kf));
+      if (k > 0) {
+        team::ChainFactor f;
+        f.from = static_cast<int>(k - 1);
+        f.to = static_cast<int>(k);
+        f.T_from_to =
+            ToPg(reg::Between(held.keyframes[k - 1].T_map_kf, held.keyframes[k].T_map_kf));
+        f.information = chain_info;
+        rg.factors.push_back(f);
+      }
+    }
+    problem.robots[robot] = std::move(rg);
+    problem.maps[{own_id, robot}] = ToPg(*g);
+  }
+  for (const auto& l : candidates) {
+    if (!(l.flags & msgs::kLoopAccepted) || !loop_verified.count(l.teammate_robot)) continue;
+    const auto r = problem.robots.find(l.teammate_robot);
+    if (r == problem.robots.end()) continue;
+    if (l.own_keyframe < 0 || l.own_keyframe >= static_cast<int>(own_poses.size()) ||
+        !own_real[static_cast<std::size_t>(l.own_keyframe)] ||
+        !poses_.Known(l.teammate_robot, l.teammate_keyframe)) {
+      continue;
+    }
+    auto loop = l;
+    loop.flags = 0;
+    problem.loops.push_back(loop);
+  }
+
+  const bool have_loops = !problem.loops.empty();
+  const bool due = now_s - last_optimize_s_ >= options_.optimize_period_s;
+  const bool pgo = have_loops && due && (accepted_changed_ || graphs_changed);
+  if (!pgo) {
+    if (have_loops && optimized_once_) return;  // the last PGO stands until the next one
+    if (!graphs_changed && !estimate_.trajectories.empty()) return;  // nothing new to place
+  }
+  std::map<int, std::vector<Pose2>> placed;
+  bool solved = false;
+  if (pgo) {
+    try {
+      const auto e = team::TwoStepPgo(problem, own_id, options_.two_step);
+      for (const auto& [robot, poses] : e.trajectories) {
+        auto& v = placed[robot];
+        for (const auto& p : poses) v.push_back(FromPg(p));
+      }
+      solved = true;
+    } catch (const std::exception&) {
+      placed.clear();  // the guess placement below
+    }
+    last_optimize_s_ = now_s;
+    accepted_changed_ = false;
+    st->optimized = solved;
+    optimized_once_ = optimized_once_ || solved;
+  }
+  own_graph_changed_ = false;
+  for (auto& [robot, changed] : graph_changed_) changed = false;
+  if (!solved) {  // every robot through its map-to-map guess
+    placed[own_id] = own_poses;
+    for (const auto& [robot, rg] : problem.robots) {
+      if (robot == own_id) continue;
+      const Pose2 T = FromPg(problem.maps.at({own_id, robot}));
+      auto& v = placed[robot];
+      for (const auto& p : rg.poses) v.push_back(reg::Compose(T, FromPg(p)));
+    }
+  }
+  if (!options_.place_unverified_teammates) {
+    // A teammate enters the estimate once the consistency filter accepted loops with it: a
+    // map-to-map guess alone (object-graph matching) can be wrong where structures repeat.
+    std::set<int> verified;
+    for (const auto& l : problem.loops) verified.insert(l.teammate_robot);
+    if (options_.place_chained_teammates) {
+      for (const auto& [robot, T] : chained) verified.insert(robot);
+    }
+    for (auto it = placed.begin(); it != placed.end();) {
+      it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
+    }
+  }
+  TeamEstimate next;
+  next.time_s = now_s;
+  next.map_checks = std::move(estimate_.map_checks);
+  // Trajectories with real keyframes only; map-to-map estimates.
+  for (const auto& [robot, poses] : placed) {
+    auto& traj = next.trajectories[robot];
+    if (robot == own_id) {
+      for (std::size_t k = 0; k < poses.size() && k < own_real.size(); ++k) {
+        if (own_real[k]) traj.push_back({static_cast<int>(k), own_times[k], poses[k]});
+      }
+      continue;
+    }
+    const auto& held = *poses_.Find(robot);
+    std::vector<Pose2> local, moved;
+    for (std::size_t k = 0; k < poses.size() && k < held.keyframes.size(); ++k) {
+      if (!held.known[k]) continue;
+      traj.push_back({static_cast<int>(k), held.keyframes[k].time_s, poses[k]});
+      local.push_back(held.keyframes[k].T_map_kf);
+      moved.push_back(poses[k]);
+    }
+    const auto g = guess(robot);
+    const auto aligned = solved ? AlignSe2(local, moved) : std::nullopt;
+    next.T_own_teammate[robot] = aligned ? *aligned : g.value_or(Pose2{});
+  }
+  estimate_ = std::move(next);
+}
+
+}  // namespace draco::agent
