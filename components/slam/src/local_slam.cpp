@@ -145,6 +145,31 @@ SeedSearch CorrelativeSeed(const icp::Cloud2& source, const icp::Cloud2& target,
       }
     }
   }
+  // Spread (second moment about their mean) of the translations scoring at least
+  // loop_ambiguity_ratio of the best.
+  if (o.loop_ambiguity_ratio > 0 && best_score > 0) {
+    double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0, syy = 0.0;
+    int n = 0;
+    for (int iy = -nt; iy <= nt; ++iy) {
+      for (int ix = -nt; ix <= nt; ++ix) {
+        if (score_at(ix, iy) < o.loop_ambiguity_ratio * best_score) continue;
+        const double x = ix * res, y = iy * res;
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
+        ++n;
+      }
+    }
+    if (n > 0) {
+      sx /= n;
+      sy /= n;
+      out.spread_xx_m2 = sxx / n - sx * sx;
+      out.spread_xy_m2 = sxy / n - sx * sy;
+      out.spread_yy_m2 = syy / n - sy * sy;
+    }
+  }
   for (int iy = -nt; iy <= nt; ++iy) {
     for (int ix = -nt; ix <= nt; ++ix) {
       if (std::hypot(ix - best_ix, iy - best_iy) * res < o.loop_ambiguity_offset_m) continue;
@@ -516,9 +541,11 @@ struct LocalSlam::Impl {
       }
       const msgs::Pose2 guess = consistency::Between(T_map_j, T_map_k);
       msgs::Pose2 seed = guess;
+      SeedSearch search;
       if (o.seed_search_m > 0) {
-        const SeedSearch search = CorrelativeSeed(source, target, guess, o);
-        if (o.loop_ambiguity_ratio > 0 && search.AmbiguityRatio() >= o.loop_ambiguity_ratio) {
+        search = CorrelativeSeed(source, target, guess, o);
+        if (o.loop_ambiguity_ratio > 0 && !o.loop_ambiguity_inflate &&
+            search.AmbiguityRatio() >= o.loop_ambiguity_ratio) {
           ++ambiguous_loops;
           continue;
         }
@@ -541,6 +568,20 @@ struct LocalSlam::Impl {
       loop.teammate_keyframe = k;
       loop.T_ownkf_teammatekf = r.T_target_source;
       loop.covariance = LoopCovariance(r.covariance, r.rmse_m, r.overlap_ratio, o);
+      if (o.loop_ambiguity_ratio > 0 && o.loop_ambiguity_inflate) {
+        // The plateau's elongation (its spread beyond the isotropic part) is added to the
+        // translation covariance (target frame, as the lattice): along a wall the loop then
+        // constrains the distance to the wall and the heading, not the slide.
+        const double sxx = search.spread_xx_m2, sxy = search.spread_xy_m2,
+                     syy = search.spread_yy_m2;
+        const double min_eig =
+            0.5 * (sxx + syy) - std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+        loop.covariance[0] += sxx - min_eig;
+        loop.covariance[1] += sxy;
+        loop.covariance[3] += sxy;
+        loop.covariance[4] += syy - min_eig;
+        if (sxx + syy - 2 * min_eig > 0.25) ++ambiguous_loops;  // more than 0.5 m of slide
+      }
       loop.overlap = r.overlap_ratio;
       loop_by_id[loop.id] = loops.size();
       loops.push_back(LoopRecord{j, k, r.T_target_source, r.overlap_ratio, r.rmse_m, false});

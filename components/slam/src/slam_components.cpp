@@ -95,6 +95,9 @@ class LocalSlamComponent final : public graph::Component {
                        "loop_ambiguity_offset_m away) scores this fraction of the best (0: off)",
                 .min = 0,
                 .max = 1});
+    spec.Param("loop_ambiguity_inflate", &o_.loop_ambiguity_inflate,
+               {.doc = "keep ambiguous loops with the search plateau's elongation added to "
+                       "their covariance instead of dropping them"});
     spec.Param("loop_ambiguity_offset_m", &o_.loop_ambiguity_offset_m,
                {.doc = "how far from the best pose a runner-up must be", .unit = "m", .min = 0});
     spec.Param("loop_max_yaw_rad", &o_.loop_max_yaw_rad,
@@ -196,7 +199,10 @@ class LocalSlamComponent final : public graph::Component {
   Status Stop(Context& ctx) override {
     if (loops_ambiguous_ > 0) {
       log::Info(prefix_ + "local SLAM: " + std::to_string(loops_ambiguous_) +
-                " loop candidates dropped as ambiguous (loop_ambiguity_ratio)");
+                (o_.loop_ambiguity_inflate
+                     ? " ambiguous loops kept with their slide added to the covariance"
+                     : " loop candidates dropped as ambiguous") +
+                " (loop_ambiguity_ratio)");
     }
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;

@@ -81,12 +81,16 @@ struct LocalSlamOptions {
   int loop_source_half_width = 0;
   // Loop ambiguity (0: off). The correlative seed search scores every lattice pose; the
   // runner-up is the best score of a pose at least loop_ambiguity_offset_m from the best ones
-  // (any rotation; CorrelativeSeedSearch). A loop whose runner-up reaches loop_ambiguity_ratio of the best score is
-  // dropped: along one straight wall the scan slides, and a row of piles matches itself
-  // shifted by its spacing, so ICP converges to wherever the seed lands and the floored
-  // loop covariance (0.1 m) pins the map there.
+  // (any rotation; CorrelativeSeedSearch). A loop whose runner-up reaches loop_ambiguity_ratio of
+  // the best score is dropped: along one straight wall the scan slides, and a row of piles matches
+  // itself shifted by its spacing, so ICP converges to wherever the seed lands and the floored loop
+  // covariance (0.1 m) pins the map there.
   double loop_ambiguity_ratio = 0.0;
   double loop_ambiguity_offset_m = 2.0;
+  // Instead of dropping an ambiguous loop, keep it and add the elongation of the search's
+  // near-best plateau (translations scoring >= loop_ambiguity_ratio of the best: their spread
+  // minus its isotropic part) to the loop's translation covariance.
+  bool loop_ambiguity_inflate = false;
 
   // Sparse point landmarks (on by default since docs/local-slam.md "Sparse point landmarks":
   // every robot of both default missions better): small isolated objects (boulders, debris) give a
@@ -186,7 +190,9 @@ struct LoopRecord {
 struct StepResult {
   int loops_registered = 0;  // candidates that passed ICP and the gates
   int loops_accepted = 0;    // newly accepted by PCM and added to the graph
-  int loops_ambiguous = 0;   // candidates dropped by the ambiguity test (loop_ambiguity_ratio)
+  // Candidates the ambiguity test dropped, or (loop_ambiguity_inflate) kept with more than
+  // 0.5 m of slide added to their covariance.
+  int loops_ambiguous = 0;
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
@@ -206,6 +212,9 @@ struct SeedSearch {
   msgs::Pose2 best;
   int best_score = 0;
   int runner_up_score = 0;
+  // Spread of the translations scoring at least loop_ambiguity_ratio of the best (m^2, lattice
+  // frame = the target's; 0 when the ratio is 0).
+  double spread_xx_m2 = 0.0, spread_xy_m2 = 0.0, spread_yy_m2 = 0.0;
   // runner_up_score / best_score (0 when nothing scored).
   double AmbiguityRatio() const {
     return best_score > 0 ? static_cast<double>(runner_up_score) / best_score : 0.0;
