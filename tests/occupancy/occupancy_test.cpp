@@ -4,6 +4,9 @@
 // unknown; the grid file MRPT writes reads back through MRPT unchanged; the map is split between
 // the keyframes that see its points.
 #include <gtest/gtest.h>
+#include <mrpt/io/CFileGZInputStream.h>
+#include <mrpt/maps/COccupancyGridMap2D.h>
+#include <mrpt/serialization/CArchive.h>
 
 #include <cmath>
 #include <filesystem>
@@ -79,7 +82,13 @@ TEST(OccupancyGrid, RepeatedScansSharpenAndARemovedObstacleClears) {
 }
 
 TEST(OccupancyGrid, GridFileReadsBackThroughMrpt) {
-  const Grid g = BuildGrid({{{0.0, 0.0, 0.3}, Wall(10.1, -2.95, 2.95)}}, {});
+  // The wall scene turned by 0.3 rad about the sensor.
+  std::vector<msgs::Point2> wall;
+  for (const auto& p : Wall(10.1, -2.95, 2.95)) {
+    wall.push_back({p.x_m * std::cos(0.3) - p.y_m * std::sin(0.3),
+                    p.x_m * std::sin(0.3) + p.y_m * std::cos(0.3)});
+  }
+  const Grid g = BuildGrid({{{0.0, 0.0, 0.3}, wall}}, {});
   const std::string path = TempPath("wall.gridmap.gz");
   WriteGridFile(g, path);
   const Grid back = ReadGridFile(path);
@@ -93,6 +102,23 @@ TEST(OccupancyGrid, GridFileReadsBackThroughMrpt) {
   }
   EXPECT_EQ(back.Count(CellState::kOccupied), g.Count(CellState::kOccupied));
   EXPECT_EQ(back.Count(CellState::kFree), g.Count(CellState::kFree));
+
+  // Read by MRPT as MRPT's apps do: its cells hold the probability of being free.
+  mrpt::maps::COccupancyGridMap2D m;
+  {
+    mrpt::io::CFileGZInputStream f(path);
+    auto archive = mrpt::serialization::archiveFrom(f);
+    archive >> m;
+  }
+  EXPECT_NEAR(m.getResolution(), 0.2, 1e-6);
+  EXPECT_NEAR(m.getPos(5.1f, static_cast<float>(0.1 + 5.1 * std::tan(0.3))),
+              1.0 - GridOptions{}.p_free, 0.01);  // crossed by the beams: free
+  const double wall_y = 1.0;  // a wall point in the world: sensor at yaw 0.3 rad
+  const double wx = 10.1 * std::cos(0.3) - wall_y * std::sin(0.3);
+  const double wy = 10.1 * std::sin(0.3) + wall_y * std::cos(0.3);
+  EXPECT_LT(m.getPos(static_cast<float>(wx), static_cast<float>(wy)), 0.45);  // occupied
+  EXPECT_NEAR(m.getPos(static_cast<float>(wx + 1.0), static_cast<float>(wy)), 0.5,
+              1e-3);  // behind it: unknown
   fs::remove(path);
 
   const std::string png = TempPath("wall.png");

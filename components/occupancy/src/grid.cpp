@@ -1,4 +1,6 @@
-// Occupancy grids through MRPT's COccupancyGridMap2D (grid.hpp).
+// Occupancy grids through MRPT's COccupancyGridMap2D (grid.hpp). MRPT's cells hold the
+// probability of being free (1 white, 0 black in its pictures); Grid holds the probability of
+// being occupied, so values cross as 1 - p.
 #include "draco/occupancy/grid.hpp"
 
 #include <mrpt/io/CFileGZInputStream.h>
@@ -36,7 +38,7 @@ mrpt::maps::COccupancyGridMap2D ToMrpt(const Grid& g) {
   const int w = std::min<int>(g.width, static_cast<int>(m.getSizeX()));
   const int h = std::min<int>(g.height, static_cast<int>(m.getSizeY()));
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) m.setCell(x, y, g.P(x, y));
+    for (int x = 0; x < w; ++x) m.setCell(x, y, 1.0f - g.P(x, y));
   }
   return m;
 }
@@ -51,7 +53,7 @@ Grid FromMrpt(const mrpt::maps::COccupancyGridMap2D& m) {
   g.p_occupied.resize(static_cast<std::size_t>(g.width) * static_cast<std::size_t>(g.height));
   for (int y = 0; y < g.height; ++y) {
     for (int x = 0; x < g.width; ++x) {
-      g.p_occupied[static_cast<std::size_t>(y) * g.width + x] = m.getCell(x, y);
+      g.p_occupied[static_cast<std::size_t>(y) * g.width + x] = 1.0f - m.getCell(x, y);
     }
   }
   return g;
@@ -144,8 +146,9 @@ Grid BuildGrid(const std::vector<Scan>& scans, const GridOptions& o) {
   // Per scan: 1 = crossed by a beam, 2 = holds a return; each touched cell updated once.
   std::vector<unsigned char> mark(n_cells, 0);
   std::vector<std::size_t> touched;
-  const float p_free = static_cast<float>(o.p_free);
-  const float p_occ = static_cast<float>(o.p_occupied);
+  // As MRPT's probabilities of being free.
+  const float free_if_crossed = static_cast<float>(1.0 - o.p_free);
+  const float free_if_return = static_cast<float>(1.0 - o.p_occupied);
   for (const auto& s : scans) {
     const double ox = s.T_map_sensor.x_m, oy = s.T_map_sensor.y_m;
     if (!std::isfinite(ox) || !std::isfinite(oy)) continue;
@@ -185,7 +188,7 @@ Grid BuildGrid(const std::vector<Scan>& scans, const GridOptions& o) {
     for (const std::size_t c : touched) {
       const int ix = static_cast<int>(c % static_cast<std::size_t>(frame.width));
       const int iy = static_cast<int>(c / static_cast<std::size_t>(frame.width));
-      m.updateCell(ix, iy, mark[c] == 2 ? p_occ : p_free);
+      m.updateCell(ix, iy, mark[c] == 2 ? free_if_return : free_if_crossed);
       mark[c] = 0;
     }
     touched.clear();
