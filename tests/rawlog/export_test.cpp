@@ -1,7 +1,9 @@
 // A recorded mission as an MRPT rawlog (export.hpp): a hand-made mission (straight drive at
 // 0.5 m/s, heading 0; every ping a bright patch 5.0-5.4 m ahead on a dark background) gives
 // one odometry per DVL sample along x, one range scan per ping whose beams with a return are
-// the patch's, at its range; the file round-trips; a trajectory merges in by time.
+// the patch's, at its range; the file round-trips; a trajectory merges in by time; the rawlog
+// read back by sonar.RawlogReader feeds the local-SLAM graph (local-slam-rawlog.yaml) the
+// same dead reckoning and the patch as features.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -10,7 +12,11 @@
 #include <filesystem>
 
 #include "draco/eval/trajectory.hpp"
+#include "draco/graph/graph.hpp"
+#include "draco/graph/testing/harness.hpp"
+#include "draco/msgs/slam.hpp"
 #include "draco/rawlog/export.hpp"
+#include "draco/rawlog/import.hpp"
 #include "draco/rawlog/rawlog.hpp"
 #include "draco/recording/recording.hpp"
 
@@ -127,6 +133,45 @@ TEST_F(RawlogExport, TrajectoryMergesByTimeAndBadInputNamesIt) {
     EXPECT_NE(std::string(e.what()).find("zulu"), std::string::npos) << e.what();
   }
   EXPECT_THROW(TrajectoryEntries((dir_ / "missing.tum").string()), std::exception);
+}
+
+TEST_F(RawlogExport, ReaderFeedsLocalSlamTheSameOdometryAndThePatch) {
+  const auto entries = MissionEntries(dir_, "alpha");
+  const std::string path = (dir_ / "alpha.rawlog").string();
+  WriteRawlog(path, entries);
+  graph::testing::Harness h("sonar.RawlogReader", "rawlog: \"" + path + "\"\n");
+  h.RunUntilIdle();
+  EXPECT_EQ(h.error(), "");
+  const auto odometry = h.Outputs<msgs::DeadReckoning>("odometry");
+  const auto features = h.Outputs<msgs::SonarFeatures>("features");
+  ASSERT_EQ(features.size(), 5u);
+  ASSERT_GE(odometry.size(), 10u);
+  for (std::size_t i = 1; i < odometry.size(); ++i) {
+    const auto& d = *odometry[i].value;
+    EXPECT_NEAR(d.T_odom_body.x_m, 0.5 * d.time_s, 1e-6);
+    EXPECT_EQ(odometry[i].stamp, graph::Time::FromSeconds(d.time_s));
+    // 0.1 s at 0.5 m/s: a 5 cm step, its variance (0.02 m/s x 0.1 s)^2 along x.
+    EXPECT_NEAR(d.T_prev_body.x_m, 0.05, 1e-6);
+    EXPECT_NEAR(d.covariance_prev_body[0], 4e-6, 1e-9);
+    EXPECT_GT(d.covariance_prev_body[8], 0.0);
+  }
+  for (const auto& f : features) {
+    ASSERT_FALSE(f.value->points_sensor.empty());
+    for (const auto& p : f.value->points_sensor) {
+      EXPECT_NEAR(std::hypot(p.x_m, p.y_m), 5.2, 0.25);
+      EXPECT_LT(std::abs(std::atan2(p.y_m, p.x_m)), 0.1);  // beams 27-36 of 64 over 1 rad
+    }
+  }
+  // The graph of local SLAM from a rawlog loads with the reader in it.
+  EXPECT_NO_THROW(graph::LoadGraphFile(std::string(DRACO_SOURCE_DIR) +
+                                       "/config/graphs/local-slam-rawlog.yaml"));
+  // A missing rawlog stops the reader with its name.
+  try {
+    graph::testing::Harness bad("sonar.RawlogReader", "rawlog: \"/nonexistent/x.rawlog\"\n");
+    FAIL() << "no exception";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("x.rawlog"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
