@@ -3,6 +3,10 @@
 //   draco validate GRAPH [--set ..]  load and validate a graph; errors name file and line
 //   draco dot GRAPH                  Graphviz of a graph (docs/ pictures)
 //   draco run [GRAPH] [--set ..]     run a graph (default: the embedded default graph)
+//   draco rawlog --out FILE [--mission DIR --robot NAME] [--trajectory TUM]
+//                                    an MRPT rawlog of a recorded robot (dead-reckoning odometry,
+//                                    sonar first returns as 2D range scans) and/or a trajectory
+//                                    (docs/results.md, "MRPT rawlogs")
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -18,6 +22,8 @@
 #include "draco/graph/executor.hpp"
 #include "draco/graph/graph.hpp"
 #include "draco/graph/progress.hpp"
+#include "draco/rawlog/export.hpp"
+#include "draco/rawlog/rawlog.hpp"
 #include "log_option.hpp"
 #include "run_info.hpp"
 
@@ -78,7 +84,48 @@ int main(int argc, char** argv) {
   run->add_option("--threads", threads, "threaded executor workers (default: the graph's)");
   run->add_option("--until", until_s, "stop at this mission time [s]");
 
+  std::string rawlog_out, rawlog_mission, rawlog_robot, rawlog_trajectory;
+  auto* rawlog = app.add_subcommand(
+      "rawlog", "write an MRPT rawlog of a recorded robot and/or an estimated trajectory");
+  rawlog->add_option("--out", rawlog_out, "rawlog file to write (gzip-compressed)")->required();
+  auto* mission_opt = rawlog->add_option("--mission", rawlog_mission, "recorded mission folder")
+                          ->check(CLI::ExistingDirectory);
+  auto* robot_opt = rawlog->add_option("--robot", rawlog_robot, "robot of the mission");
+  mission_opt->needs(robot_opt);
+  robot_opt->needs(mission_opt);
+  rawlog
+      ->add_option("--trajectory", rawlog_trajectory,
+                   "TUM trajectory (e.g. RUN/alpha.trajectory.tum) added as robot poses")
+      ->check(CLI::ExistingFile);
+
   CLI11_PARSE(app, argc, argv);
+
+  if (app.got_subcommand("rawlog")) {
+    if (rawlog_mission.empty() && rawlog_trajectory.empty()) {
+      draco::log::Error("draco rawlog: give --mission and --robot, --trajectory, or both");
+      return 2;
+    }
+    try {
+      namespace rl = draco::rawlog;
+      rl::ExportStats stats;
+      std::vector<rl::Entry> entries;
+      if (!rawlog_mission.empty()) {
+        entries = rl::MissionEntries(rawlog_mission, rawlog_robot, &stats);
+      }
+      if (!rawlog_trajectory.empty()) {
+        auto poses = rl::TrajectoryEntries(rawlog_trajectory);
+        stats.poses = static_cast<int>(poses.size());
+        entries = rl::MergeByTime(std::move(entries), poses);
+      }
+      rl::WriteRawlog(rawlog_out, entries);
+      std::printf("%s: %d odometry, %d range scans (%d beams with a return), %d poses\n",
+                  rawlog_out.c_str(), stats.odometry, stats.scans, stats.valid_beams, stats.poses);
+      return 0;
+    } catch (const std::exception& e) {
+      draco::log::Error(std::string("draco rawlog: ") + e.what());
+      return 1;
+    }
+  }
 
   try {
     if (app.got_subcommand("list")) {

@@ -2,12 +2,15 @@
 // For every "<robot>.trajectory.tum" in the run folder, with "<robot>.dead_reckoning.tum"
 // beside it and a ground truth ("<robot>.ground_truth.tum" or "ground_truth.tum"), prints
 // ATE RMSE (SE(2) Umeyama alignment) and RPE of the estimate and of dead reckoning at the
-// same keyframe times. Then writes team_map.png, ate.png and report.md into the run folder
-// (docs/results.md); with --mission, also sonar frames with their CFAR detections.
+// same keyframe times. Then writes team_map.png, ate.png, the occupancy grids
+// (<robot>.grid.png / .gridmap.gz, cell size --grid-cell-m) and report.md into the run folder
+// (docs/results.md); with --mission, also sonar frames with their CFAR detections, and the
+// grids take the sonar's range and aperture from its mission.yaml.
 // A team run (draco-fleet, draco-robot: <robot>.team.<teammate>.tum present) adds team ATE with
 // the concatenation protocol (Table III), inter-robot loops judged against ground truth
 // (<robot>.inter_loops_verdict.csv), Table II, Table IV, traffic per robot, the team map in the
-// first robot's frame and link traffic over time (link_traffic.png).
+// first robot's frame, the team occupancy grid (team_grid.png / .gridmap.gz) and link traffic
+// over time (link_traffic.png).
 // Exit code 1 when nothing could be evaluated.
 #include <CLI/CLI.hpp>
 
@@ -18,6 +21,8 @@
 #include <iostream>
 
 #include "app_version.hpp"
+#include "draco/occupancy/grid.hpp"
+#include "draco/recording/recording.hpp"
 #include "draco/report/run_report.hpp"
 #include "draco/report/team_run.hpp"
 #include "frames.hpp"
@@ -66,9 +71,23 @@ int main(int argc, char** argv) {
   app.add_option("--robot", frames.robot, "sonar frames of this robot only");
   app.add_option("--frames", frames.per_robot, "sonar frames per robot")->check(CLI::Range(0, 50));
   app.add_flag("--no-report", no_report, "print the table only (no figures, no report.md)");
+  draco::occupancy::GridOptions grid;
+  app.add_option("--grid-cell-m", grid.cell_size_m, "cell size of the occupancy grids [m]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 100.0));
   app.set_version_flag("--version", draco::app::VersionLine("draco-eval"));
   CLI11_PARSE(app, argc, argv);
 
+  if (!frames.mission_dir.empty() && !no_report) {
+    try {
+      const auto sonar = draco::recording::LoadMissionInfo(frames.mission_dir).sonar;
+      grid.max_range_m = sonar.num_ranges * sonar.range_resolution_m;
+      grid.fov_rad = sonar.horizontal_aperture_rad;
+    } catch (const std::exception& e) {
+      draco::log::Error(std::string("draco-eval: --mission: ") + e.what());
+      return 1;
+    }
+  }
   const bool team_run = draco::report::IsTeamRun(run_dir);
   const bool with_frames = !no_report && !frames.mission_dir.empty() && frames.per_robot > 0;
   Steps steps(1 + (team_run ? 1 : 0) + (no_report ? 0 : 2) + (with_frames ? 1 : 0));
@@ -120,17 +139,20 @@ int main(int argc, char** argv) {
     try {
       draco::report::ReportContent content;
       content.command = "draco-eval " + run_dir;
+      if (grid.cell_size_m != draco::occupancy::GridOptions{}.cell_size_m) {
+        content.command += " --grid-cell-m " + std::to_string(grid.cell_size_m);
+      }
       if (!frames.mission_dir.empty()) {
         content.command += " --mission " + frames.mission_dir;
         if (!frames.robot.empty()) content.command += " --robot " + frames.robot;
       }
       steps.Next("figures");
       if (team_run) {
-        const auto team_figures = draco::report::RenderTeamFigures(team, 0);
+        const auto team_figures = draco::report::RenderTeamFigures(team, 0, grid);
         for (const auto& f : team_figures) {
-          if (f.path == "team_map.png") content.figures.push_back(f);
+          if (f.path == "team_map.png" || f.path == "team_grid.png") content.figures.push_back(f);
         }
-        for (const auto& f : draco::report::RenderRunFigures(ev, "local_maps.png")) {
+        for (const auto& f : draco::report::RenderRunFigures(ev, "local_maps.png", grid)) {
           content.figures.push_back(f);
         }
         content.sections.push_back(draco::report::TeamReportMarkdown(team, team_figures));
@@ -138,7 +160,7 @@ int main(int argc, char** argv) {
           std::printf("loop verdicts: %s\n", p.c_str());
         }
       } else {
-        content.figures = draco::report::RenderRunFigures(ev);
+        content.figures = draco::report::RenderRunFigures(ev, "team_map.png", grid);
       }
       if (with_frames) {
         steps.Next("sonar frames with CFAR detections");

@@ -1,7 +1,7 @@
-// Registration back ends (icp.hpp): PCL's ICP, GICP and NDT recover a known planar transform
-// on the marina-like scene as draco's ICP does; a prepared target serves many sources and a
-// change of back end; the back end is chosen by name in YAML, unknown names are refused
-// with the choices listed.
+// Registration back ends (icp.hpp): PCL's ICP, GICP and NDT and MRPT's ICP recover a known planar
+// transform on the marina-like scene as draco's ICP does; a prepared target serves many sources and
+// a change of back end; the back end is chosen by name in YAML, unknown names are refused with the
+// choices listed.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -64,7 +64,7 @@ TEST_P(BackendRecovers, KnownTransformWithNoiseAndOutliers) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, BackendRecovers,
                          ::testing::Values(Backend::kDraco, Backend::kPclIcp, Backend::kPclGicp,
-                                           Backend::kPclNdt),
+                                           Backend::kPclNdt, Backend::kMrptIcp),
                          [](const auto& i) { return std::string(BackendName(i.param)); });
 
 TEST(Backends, PreparedTargetServesManySourcesAndBackEnds) {
@@ -75,8 +75,8 @@ TEST(Backends, PreparedTargetServesManySourcesAndBackEnds) {
   const Eigen::Rotation2Dd R(0.05);
   for (const auto& p : a.source) other.push_back(R * p + Eigen::Vector2d(0.1, 0.2));
   IcpTarget prepared(a.target);
-  for (const Backend b :
-       {Backend::kPclIcp, Backend::kPclGicp, Backend::kPclNdt, Backend::kDraco, Backend::kPclIcp}) {
+  for (const Backend b : {Backend::kPclIcp, Backend::kPclGicp, Backend::kPclNdt, Backend::kMrptIcp,
+                          Backend::kDraco, Backend::kPclIcp, Backend::kMrptIcp}) {
     IcpOptions o;
     o.backend = b;
     for (const Cloud2* source : sources) {
@@ -92,7 +92,8 @@ TEST(Backends, PreparedTargetServesManySourcesAndBackEnds) {
 TEST(Backends, FewPointsAreInvalidNotACrash) {
   const Cloud2 target{{0, 0}, {1, 0}, {0, 1}};
   const Cloud2 source{{0.1, 0}, {5, 5}};
-  for (const Backend b : {Backend::kPclIcp, Backend::kPclGicp, Backend::kPclNdt}) {
+  for (const Backend b :
+       {Backend::kPclIcp, Backend::kPclGicp, Backend::kPclNdt, Backend::kMrptIcp}) {
     IcpOptions o;
     o.backend = b;
     const IcpResult r = AlignIcp(source, target, {}, o);
@@ -108,13 +109,14 @@ TEST(Backends, NamesRoundTripAndUnknownNamesListTheChoices) {
     ParseBackend("ndt");
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("draco, pcl_icp, pcl_gicp, pcl_ndt"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("draco, pcl_icp, pcl_gicp, pcl_ndt, mrpt_icp"),
+              std::string::npos)
         << e.what();
   }
 }
 
 TEST(Backends, ChosenInYamlAndValidated) {
-  for (const char* name : {"pcl_icp", "pcl_gicp", "pcl_ndt"}) {
+  for (const char* name : {"pcl_icp", "pcl_gicp", "pcl_ndt", "mrpt_icp"}) {
     EXPECT_NO_THROW(
         graph::testing::Harness("slam.IcpOdometry", std::string("backend: ") + name + "\n"));
   }
@@ -124,7 +126,7 @@ TEST(Backends, ChosenInYamlAndValidated) {
   } catch (const std::exception& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("gicp"), std::string::npos) << what;
-    EXPECT_NE(what.find("pcl_ndt"), std::string::npos) << what;
+    EXPECT_NE(what.find("mrpt_icp"), std::string::npos) << what;
   }
 }
 

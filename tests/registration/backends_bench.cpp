@@ -1,6 +1,6 @@
 // Not a test: the registration back ends (icp::Backend: draco's 2D ICP, PCL's ICP, GICP and
-// NDT) side by side on a recorded mission's real scan pairs, judged against its ground truth
-// (docs/benchmarks.md, "Registration back ends").
+// NDT, MRPT's ICP) side by side on a recorded mission's real scan pairs, judged against its ground
+// truth (docs/benchmarks.md, "Registration back ends").
 //
 //   registration_backends_bench MISSION_DIR --out DIR [--reuse]
 //
@@ -70,7 +70,7 @@ struct SeqPair {
 
 constexpr const char* kUsage =
     "usage: registration_backends_bench MISSION_DIR --out DIR [--reuse] [--graph YAML]\n"
-    "         [--backends draco,pcl_icp,pcl_gicp,pcl_ndt] [--ndt-resolution M] "
+    "         [--backends draco,pcl_icp,pcl_gicp,pcl_ndt,mrpt_icp] [--ndt-resolution M] "
     "[--sequential-only]\n";
 
 int main(int argc, char** argv) {

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "draco/occupancy/grid.hpp"
 #include "draco/pointcloud_io/pointcloud_io.hpp"
 #include "draco/report/files.hpp"
 #include "draco/report/run_report.hpp"
@@ -113,6 +114,20 @@ TEST_F(RunReportTest, WritesReportWithTablesAndFigures) {
   EXPECT_TRUE(fs::exists(dir_ / "ate.png"));
   // The drawn point clouds as one PCD beside the picture (r1's map, aligned as drawn).
   EXPECT_EQ(draco::pointcloud_io::ReadMapPcd((dir_ / "team_map.pcd").string()).size(), 3u);
+  // r1's occupancy grid beside the map (r2 has no map, so no grid): PNG and MRPT's grid file,
+  // in the map's frame (the alignment is the identity): r1's three map points occupied, the
+  // beam from the keyframe (2, -0.1) to (3, 0.25) free, behind the first keyframe unknown.
+  EXPECT_NE(md.find("![r1.grid.png](r1.grid.png)"), std::string::npos) << md;
+  EXPECT_EQ(md.find("r2.grid.png"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir_ / "r1.grid.png"));
+  EXPECT_FALSE(fs::exists(dir_ / "r2.grid.png"));
+  const auto grid = draco::occupancy::ReadGridFile((dir_ / "r1.grid.gridmap.gz").string());
+  using draco::occupancy::CellState;
+  for (const auto& [x, y] : {std::pair{0.5, 1.0}, {2.0, -1.0}, {3.0, 0.25}}) {
+    EXPECT_EQ(grid.StateAt(x, y), CellState::kOccupied) << x << " " << y;
+  }
+  EXPECT_EQ(grid.StateAt(2.5, 0.15), CellState::kFree);
+  EXPECT_EQ(grid.StateAt(-1.0, 0.1), CellState::kUnknown);
   // Atomic writes: nothing temporary is left behind.
   for (const auto& e : fs::directory_iterator(dir_)) {
     EXPECT_EQ(e.path().filename().string().find(".partial"), std::string::npos) << e.path();

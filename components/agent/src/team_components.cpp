@@ -336,8 +336,9 @@ class ScanExchangeComponent final : public graph::Component {
     spec.Param("min_overlap", &o_.registration.min_overlap,
                {.doc = "registration acceptance (overlap ratio)", .min = 0.0, .max = 1.0});
     spec.Param("backend", &backend_,
-               {.doc = "registration back end: draco's 2D ICP, or PCL's ICP (2D), GICP or NDT "
-                       "(3D with z = 0, projected to SE(2)); docs/benchmarks.md compares them",
+               {.doc = "registration back end: draco's 2D ICP, PCL's ICP (2D), GICP or NDT "
+                       "(3D with z = 0, projected to SE(2)), or MRPT's 2D ICP; docs/benchmarks.md "
+                       "compares them",
                 .choices = icp::BackendNames()});
     spec.Param("ndt_resolution_m", &o_.registration.icp.ndt_resolution_m,
                {.doc = "pcl_ndt: voxel size", .unit = "m", .min = 0.05});

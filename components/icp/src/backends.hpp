@@ -1,5 +1,6 @@
-// The PCL registration back ends of AlignIcp (icp.hpp), one translation unit each
-// (pcl_icp.cpp, pcl_gicp.cpp, pcl_ndt.cpp). Private to draco_icp; no PCL in this header.
+// The PCL and MRPT registration back ends of AlignIcp (icp.hpp), one translation unit each
+// (pcl_icp.cpp, pcl_gicp.cpp, pcl_ndt.cpp, mrpt_icp.cpp). Private to draco_icp; no PCL or
+// MRPT in this header.
 #pragma once
 
 #include "draco/icp/icp.hpp"
@@ -21,5 +22,7 @@ BackendAnswer AlignPclGicp(const Cloud2& source, IcpTarget& target,
                            const msgs::Pose2& initial_T_target_source, const IcpOptions& options);
 BackendAnswer AlignPclNdt(const Cloud2& source, IcpTarget& target,
                           const msgs::Pose2& initial_T_target_source, const IcpOptions& options);
+BackendAnswer AlignMrptIcp(const Cloud2& source, IcpTarget& target,
+                           const msgs::Pose2& initial_T_target_source, const IcpOptions& options);
 
 }  // namespace draco::icp::detail

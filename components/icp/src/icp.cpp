@@ -209,6 +209,9 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
       case Backend::kPclGicp:
         a = detail::AlignPclGicp(source, target, initial_T_target_source, o);
         break;
+      case Backend::kMrptIcp:
+        a = detail::AlignMrptIcp(source, target, initial_T_target_source, o);
+        break;
       case Backend::kPclNdt:
       default:
         a = detail::AlignPclNdt(source, target, initial_T_target_source, o);
@@ -263,7 +266,8 @@ IcpResult AlignIcp(const Cloud2& source, const Cloud2& target,
 }
 
 const std::vector<std::string>& BackendNames() {
-  static const std::vector<std::string> names{"draco", "pcl_icp", "pcl_gicp", "pcl_ndt"};
+  static const std::vector<std::string> names{"draco", "pcl_icp", "pcl_gicp", "pcl_ndt",
+                                              "mrpt_icp"};
   return names;
 }
 

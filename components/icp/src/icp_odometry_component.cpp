@@ -50,8 +50,9 @@ class IcpOdometryComponent final : public graph::Component {
                {"ICP keeps this fraction of the closest pairs", "", 0.01, 1.0, {}});
     spec.Param("max_iterations", &o_.icp.max_iterations, {"ICP iterations", "", 1.0, 1000.0, {}});
     spec.Param("backend", &backend_,
-               {.doc = "registration back end: draco's 2D ICP, or PCL's ICP (2D), GICP or NDT "
-                       "(3D with z = 0, projected to SE(2)); docs/benchmarks.md compares them",
+               {.doc = "registration back end: draco's 2D ICP, PCL's ICP (2D), GICP or NDT "
+                       "(3D with z = 0, projected to SE(2)), or MRPT's 2D ICP; docs/benchmarks.md "
+                       "compares them",
                 .choices = BackendNames()});
     spec.Param("ndt_resolution_m", &o_.icp.ndt_resolution_m,
                {.doc = "pcl_ndt: voxel size", .unit = "m", .min = 0.05});

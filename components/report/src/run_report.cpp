@@ -15,6 +15,7 @@
 #include "draco/eval/trajectory.hpp"
 #include "draco/report/figures.hpp"
 #include "draco/report/files.hpp"
+#include "draco/report/grids.hpp"
 
 namespace fs = std::filesystem;
 
@@ -201,26 +202,34 @@ RunEvaluation EvaluateRun(const std::string& run_dir) {
   return ev;
 }
 
-std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::string& map_png) {
+std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::string& map_png,
+                                           const occupancy::GridOptions& grid) {
   std::vector<ReportFigure> out;
   if (ev.robots.empty()) return out;
   const fs::path dir(ev.run_dir);
   TeamMap map;
   map.title = (map_png == "team_map.png" ? "Team map: " : "Local maps: ") +
               fs::path(ev.run_dir).filename().string() + " (local SLAM aligned to ground truth)";
+  std::vector<ReportFigure> grids;
   for (const auto& r : ev.robots) {
     RobotLayer layer;
     layer.name = r.robot;
     const auto truth = eval::ReadTum(TruthPath(dir, r.robot).string());
     const auto est = eval::ReadTum((dir / (r.robot + kTrajSuffix)).string());
     const eval::Se2 T = eval::Ate(est, truth).T_truth_estimate;
-    for (const auto& p : eval::Transform(T, est)) layer.estimate.push_back({p.x_m, p.y_m});
+    const eval::Trajectory aligned = eval::Transform(T, est);
+    for (const auto& p : aligned) layer.estimate.push_back({p.x_m, p.y_m});
     for (const auto& p : truth) layer.truth.push_back({p.x_m, p.y_m});
     const std::string cloud = MapCloudPath(dir.string(), r.robot);
     if (!cloud.empty()) {
       const double c = std::cos(T.yaw_rad), s = std::sin(T.yaw_rad);
       for (const auto& p : ReadMapXy(cloud)) {
         layer.cloud.push_back({c * p.x - s * p.y + T.x_m, s * p.x + c * p.y + T.y_m});
+      }
+      if (auto f = WriteGridFigure({{aligned, layer.cloud}}, grid, dir, r.robot + ".grid",
+                                   "Occupancy grid of " + r.robot +
+                                       " (its map and local-SLAM keyframes, as in the map)")) {
+        grids.push_back(*f);
       }
     }
     map.robots.push_back(std::move(layer));
@@ -231,6 +240,7 @@ std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& ev, const std::s
       {map_png, std::string(map_png == "team_map.png" ? "Team map" : "Local maps") +
                     ": each robot's local-SLAM trajectory (solid, aligned to ground truth by "
                     "SE(2) Umeyama), ground truth (dashed), point-cloud map (dots)."});
+  out.insert(out.end(), grids.begin(), grids.end());
 
   std::vector<std::string> names;
   BarSeries dr{"dead reckoning", {}, Rgb{150, 150, 150}};
@@ -259,6 +269,19 @@ std::string ReportMarkdown(const RunEvaluation& ev, const ReportContent& content
   for (const auto& f : content.figures) {
     if (f.path == "team_map.png")
       md << "![team map](" << f.path << ")\n\n*" << f.caption << "*\n\n";
+  }
+  // Occupancy grids beside the map: one row of pictures, captions below.
+  std::string grid_row, grid_captions;
+  for (const auto& f : content.figures) {
+    if (!IsGridFigure(f.path)) continue;
+    grid_row += "![" + f.path + "](" + f.path + ") ";
+    grid_captions += "- *" + f.caption + "*\n";
+  }
+  if (!grid_row.empty()) {
+    md << "Occupancy grids (free along each sonar beam up to its first return, occupied at "
+          "returns):\n\n"
+       << grid_row << "\n\n"
+       << grid_captions << "\n";
   }
 
   md << "## Accuracy per robot\n\n"
@@ -334,7 +357,7 @@ std::string ReportMarkdown(const RunEvaluation& ev, const ReportContent& content
     }
   }
   for (const auto& f : content.figures) {
-    if (f.path != "team_map.png" && f.path != "ate.png") {
+    if (f.path != "team_map.png" && f.path != "ate.png" && !IsGridFigure(f.path)) {
       md << "![" << f.caption << "](" << f.path << ")\n\n*" << f.caption << "*\n\n";
     }
   }

@@ -13,6 +13,7 @@
 
 #include "draco/report/figures.hpp"
 #include "draco/report/files.hpp"
+#include "draco/report/grids.hpp"
 #include "draco/report/team_run.hpp"
 
 namespace fs = std::filesystem;
@@ -71,7 +72,8 @@ Xy Apply(const eval::Se2& T, double x, double y) {
 
 }  // namespace
 
-std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) {
+std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot,
+                                            const occupancy::GridOptions& grid) {
   std::vector<ReportFigure> out;
   const fs::path dir(t.run_dir);
   const std::size_t n = t.team.size();
@@ -104,6 +106,7 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
   map.title = "Team map of " + M + " (" + fs::path(t.run_dir).filename().string() + ")" +
               (aligned ? ", aligned to ground truth" : "");
   int placed_count = 0;
+  std::vector<GridLayer> grid_layers;
   for (std::size_t j = 0; j < n; ++j) {
     RobotLayer layer;
     layer.name = t.team[j];
@@ -121,6 +124,7 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
       const std::string cloud = MapCloudPath(dir.string(), t.team[j]);
       if (!cloud.empty()) {
         for (const auto& p : ReadMapXy(cloud)) layer.cloud.push_back(Apply(T, p.x, p.y));
+        grid_layers.push_back({eval::Transform(T_world_M, placed[j]), layer.cloud});
       }
       for (auto o : ReadObjects(dir / (t.team[j] + ".objects.csv"))) {
         o.centre = Apply(T, o.centre.x, o.centre.y);
@@ -181,6 +185,13 @@ std::vector<ReportFigure> RenderTeamFigures(const TeamResult& t, int map_robot) 
              std::to_string(loops_drawn) +
              " accepted inter-robot loop closures (purple; thin and dashed when false against "
              "ground truth)."});
+  }
+
+  if (auto f = WriteGridFigure(grid_layers, grid, dir, "team_grid",
+                               "Team occupancy grid in " + M +
+                                   "'s map frame: every placed robot's map and keyframes as " + M +
+                                   "'s team estimate placed them (as in the team map)")) {
+    out.push_back(*f);
   }
 
   // ---- The paper's Fig. 3 from the registrations the run logged.

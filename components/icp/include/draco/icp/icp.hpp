@@ -3,9 +3,9 @@
 // Transforms are named by frames: T_target_source maps source points into the target
 // frame. No runtime dependency.
 //
-// Registration back ends (IcpOptions::backend): draco's own 2D ICP (the default), or PCL's
-// ICP, GICP or NDT. PCL is used in src/pcl_*.cpp only (one translation unit per back end);
-// this header stays plain C++.
+// Registration back ends (IcpOptions::backend): draco's own 2D ICP (the default), PCL's
+// ICP, GICP or NDT, or MRPT's 2D ICP. PCL is used in src/pcl_*.cpp only, MRPT in
+// src/mrpt_icp.cpp only (one translation unit per back end); this header stays plain C++.
 #pragma once
 
 #include <memory>
@@ -36,8 +36,14 @@ enum class Metric { kPointToPoint, kPointToLine };
 //  kPclNdt   pcl::NormalDistributionsTransform in 3D with z = 0 (voxels ndt_resolution_m;
 //            the flat z extent of each cell is PCL's own eigenvalue floor), projected to
 //            SE(2) as GICP. Uses max_iterations and the convergence translation only.
-enum class Backend { kDraco, kPclIcp, kPclGicp, kPclNdt };
-const char* BackendName(Backend backend);  // "draco", "pcl_icp", "pcl_gicp", "pcl_ndt"
+//  kMrptIcp  mrpt::slam::CICP (classic 2D ICP, x, y, yaw): the correspondence distance starts
+//            at max_correspondence_distance_m and is halved each time the steps fall below
+//            the convergence thresholds, down to 0.1 m (MRPT's annealing instead of
+//            trimming); every source point matched. Uses max_iterations and the
+//            convergence thresholds; trim_fraction is not used.
+enum class Backend { kDraco, kPclIcp, kPclGicp, kPclNdt, kMrptIcp };
+// "draco", "pcl_icp", "pcl_gicp", "pcl_ndt", "mrpt_icp"
+const char* BackendName(Backend backend);
 const std::vector<std::string>& BackendNames();
 // Throws std::invalid_argument naming the choices.
 Backend ParseBackend(std::string_view name);

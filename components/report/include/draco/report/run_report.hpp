@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "draco/occupancy/grid.hpp"
+
 namespace draco::report {
 
 // Per robot, from <robot>.trajectory.tum, <robot>.dead_reckoning.tum, <robot>.ground_truth.tum
@@ -88,9 +90,12 @@ struct ReportContent {
 // Renders the local map (each robot's local SLAM aligned to ground truth, with ground truth and
 // point clouds; team_map.png unless map_png says otherwise, e.g. local_maps.png in a team run
 // whose team_map.png is the team estimate) and ate.png (dead reckoning vs local SLAM per robot)
-// into the run folder; returns them. report.md shows team_map.png first.
+// into the run folder; returns them. report.md shows team_map.png first. Also each robot's
+// occupancy grid from its point map and keyframes in the same frame (<robot>.grid.png and
+// <robot>.grid.gridmap.gz, grids.hpp), shown in report.md beside the map.
 std::vector<ReportFigure> RenderRunFigures(const RunEvaluation& evaluation,
-                                           const std::string& map_png = "team_map.png");
+                                           const std::string& map_png = "team_map.png",
+                                           const occupancy::GridOptions& grid = {});
 
 std::string ReportMarkdown(const RunEvaluation& evaluation, const ReportContent& content);
 

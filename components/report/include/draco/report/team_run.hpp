@@ -211,8 +211,11 @@ std::string TeamResultMarkdown(const TeamResult& result);
 // Figures of a team run, written into the run folder: team_map.png (robot map_robot's frame;
 // default the first robot), link_traffic.png (+ link_traffic_detail.png, scaled to the
 // traffic) and, with judged registrations, fig3.png (precision and true positives against the
-// overlap threshold per window). Returns them relative to the run folder.
-std::vector<ReportFigure> RenderTeamFigures(const TeamResult& result, int map_robot = 0);
+// overlap threshold per window) and the team occupancy grid (team_grid.png and
+// team_grid.gridmap.gz: every placed robot's point map and keyframes as the team estimate
+// placed them, grids.hpp). Returns them relative to the run folder.
+std::vector<ReportFigure> RenderTeamFigures(const TeamResult& result, int map_robot = 0,
+                                            const occupancy::GridOptions& grid = {});
 
 // The team sections of report.md: Table III (team ATE), inter-robot loop closures, Table II,
 // Table IV and link traffic; `figures` as RenderTeamFigures returned them.
