@@ -576,11 +576,13 @@ struct LocalSlam::Impl {
                      syy = search.spread_yy_m2;
         const double min_eig =
             0.5 * (sxx + syy) - std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
-        loop.covariance[0] += sxx - min_eig;
-        loop.covariance[1] += sxy;
-        loop.covariance[3] += sxy;
-        loop.covariance[4] += syy - min_eig;
-        if (sxx + syy - 2 * min_eig > 0.25) ++ambiguous_loops;  // more than 0.5 m of slide
+        if (sxx + syy - 2 * min_eig > 0.25) {  // more than 0.5 m of slide
+          loop.covariance[0] += sxx - min_eig;
+          loop.covariance[1] += sxy;
+          loop.covariance[3] += sxy;
+          loop.covariance[4] += syy - min_eig;
+          ++ambiguous_loops;
+        }
       }
       loop.overlap = r.overlap_ratio;
       loop_by_id[loop.id] = loops.size();
