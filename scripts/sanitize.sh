@@ -19,6 +19,11 @@
 # Left out of the ASan run unless ASAN_FULL=1 (docs/hardening.md says why):
 #   worlds.smoke_runs_judges_and_repeats  four 480 s three-robot missions, ~7 min each under
 #                                         ASan, through code the rest of the suite runs too;
+#   net.team_across_namespaces            five three-robot daemon runs across network
+#                                         namespaces (and an in-process run), with lock-step
+#                                         and wall-clock waits sized for unsanitized daemons
+#                                         and a fixed 300 s ctest timeout (fleet.* runs the
+#                                         daemons under ASan);
 #   AgentTest.{AcceptedLoopsAreTrue,EstimatePlacesTeammateTrajectory,
 #     RequestsAndRepliesAreBounded,SecondRunIsBitIdentical}
 #                                         the same deterministic two-robot mission as
@@ -32,7 +37,7 @@ root=$(pwd)
 kind=${1:-}
 case "$kind" in
   -h|--help)
-    sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'
     exit 0
     ;;
   asan) default_dir=build-asan ;;
@@ -110,7 +115,7 @@ cd "$build_dir"
 status=0
 if [ "$kind" = asan ]; then
   if [ "${ASAN_FULL:-0}" != 1 ]; then
-    long='^worlds\.smoke_runs_judges_and_repeats$|^AgentTest\.(AcceptedLoopsAreTrue|EstimatePlacesTeammateTrajectory|RequestsAndRepliesAreBounded|SecondRunIsBitIdentical)$'
+    long='^worlds\.smoke_runs_judges_and_repeats$|^net\.team_across_namespaces$|^AgentTest\.(AcceptedLoopsAreTrue|EstimatePlacesTeammateTrajectory|RequestsAndRepliesAreBounded|SecondRunIsBitIdentical)$'
     ctest_args=(-E "$long" "${ctest_args[@]}")
   fi
   log "running the whole suite under ASan + UBSan (ctest -j $CTEST_JOBS ${ctest_args[*]})"
