@@ -42,7 +42,7 @@ root=$(pwd)
 kind=${1:-}
 case "$kind" in
   -h|--help)
-    sed -n '2,32p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,38p' "$0" | sed 's/^# \{0,1\}//'
     exit 0
     ;;
   asan) default_dir=build-asan ;;
@@ -101,6 +101,13 @@ log "configuring $build_dir (RelWithDebInfo = '$flags', DRACO_SANITIZE=$sanitize
 cmake -S . -B "$build_dir" "${generator[@]}" "${compiler[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$flags" \
   -DDRACO_SANITIZE="$sanitize" -DDRACO_FUZZ="$fuzz" -DDRACO_WERROR=OFF >/dev/null
+# halt_on_error / exitcode: the first report ends the process with a non-zero status. Set
+# before the build too: gtest_discover_tests runs each test binary after linking it.
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1:check_initialization_order=1:${ASAN_OPTIONS:-}"
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0:${LSAN_OPTIONS:-}"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$supp/ubsan.supp:${UBSAN_OPTIONS:-}"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp:${TSAN_OPTIONS:-}"
+
 t0=$(seconds)
 log "building ${targets[*]} with $JOBS jobs"
 cmake --build "$build_dir" -j "$JOBS" --target "${targets[@]}"
@@ -110,11 +117,6 @@ if [ "${SANITIZE_BUILD_ONLY:-0}" = 1 ]; then
   exit 0
 fi
 
-# halt_on_error / exitcode: the first report ends the process with a non-zero status.
-export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1:check_initialization_order=1:${ASAN_OPTIONS:-}"
-export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0:${LSAN_OPTIONS:-}"
-export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$supp/ubsan.supp:${UBSAN_OPTIONS:-}"
-export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp:${TSAN_OPTIONS:-}"
 
 cd "$build_dir"
 status=0
