@@ -4,9 +4,18 @@
 #                           mission, replay it through local SLAM, evaluate, write the report
 #                           (extra arguments go to draco-local-slam, e.g. --set k=v;
 #                           MISSION=dir and RUN_DIR=dir choose the folders)
-#   scripts/setup.sh test   install missing packages, build with -Werror, format check, all tests
+#   scripts/setup.sh test   install missing packages, format check, build with -Werror, all
+#                           tests; then the hardening stages (docs/hardening.md, "What CI runs"):
+#                           one clang build (-O1) of the fuzzers and of the suite under ASan +
+#                           UBSan, every fuzzer 30 s on its corpus, the suite under ASan + UBSan
+#                           (the long end-to-end runs left out), the tsan-labelled tests under
+#                           TSan. Any test failure, sanitizer report or fuzz finding fails it.
 #   scripts/setup.sh build  install missing packages and build only
-# Environment: BUILD_DIR (default build), JOBS (default nproc), DRACO_SANITIZE=ON for ASan/UBSan.
+#   scripts/setup.sh --help this text
+# Environment: BUILD_DIR (default build), JOBS (default nproc), DRACO_SANITIZE=ON for ASan/UBSan
+# in BUILD_DIR. For `test`: DRACO_CI_SANITIZERS=0 skips the hardening stages (developers; CI
+# runs them), SAN_BUILD_DIR (default build-san), TSAN_BUILD_DIR (default build-tsan),
+# FUZZ_SECONDS (default 30 per target).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -16,6 +25,29 @@ BUILD_DIR=${BUILD_DIR:-build}
 JOBS=${JOBS:-$(nproc)}
 
 log() { printf '[setup] %s\n' "$*"; }
+
+# Stage headers and a table of wall times at the end (also when a stage fails).
+stage_rows=()
+stage_name=""
+stage_t0=0
+stage() {
+  stage_end ok
+  stage_name=$1
+  stage_t0=$(date +%s)
+  printf '\n[setup] ==================== %s ====================\n' "$stage_name"
+}
+stage_end() {
+  [ -n "$stage_name" ] || return 0
+  stage_rows+=("$(printf '%-58s %6d s  %s' "$stage_name" $(($(date +%s) - stage_t0)) "$1")")
+  stage_name=""
+}
+stage_summary() {
+  local rc=$?
+  stage_end "$([ $rc -eq 0 ] && echo ok || echo FAILED)"
+  [ ${#stage_rows[@]} -gt 0 ] || return 0
+  printf '\n[setup] stage wall times (%s)\n' "$([ $rc -eq 0 ] && echo all passed || echo FAILED)"
+  printf '  %s\n' "${stage_rows[@]}"
+}
 
 install_packages() {
   local missing=()
@@ -85,14 +117,41 @@ case "$mode" in
     "$BUILD_DIR/apps/eval/draco-eval" "$run_dir/dds" --mission "$mission"
     ;;
   test)
+    trap stage_summary EXIT
+    t_start=$(date +%s)
+    stage "packages and format check"
     install_packages
     format_check
+    stage "Release build with -Werror ($BUILD_DIR)"
     configure_and_build ON
-    log "running tests"
+    stage "all tests (ctest -j $JOBS, $BUILD_DIR)"
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600 "$@"
+    if [ "${DRACO_CI_SANITIZERS:-1}" = 0 ]; then
+      stage_end ok
+      log "DRACO_CI_SANITIZERS=0: sanitizer and fuzz stages skipped (CI runs them)"
+      exit 0
+    fi
+    san_dir=${SAN_BUILD_DIR:-build-san}
+    tsan_dir=${TSAN_BUILD_DIR:-build-tsan}
+    # One clang folder serves the fuzzers (linked with -fsanitize=fuzzer) and the suite (linked
+    # with ASan + UBSan); -O1 with line tables builds in about half the time of -O2 -g.
+    stage "ASan + UBSan + fuzzer build (clang -O1, $san_dir)"
+    SANITIZE_BUILD_ONLY=1 SANITIZE_FUZZ=ON JOBS=$JOBS scripts/sanitize.sh asan "$san_dir"
+    stage "fuzzers, ${FUZZ_SECONDS:-30} s each on their corpora ($san_dir)"
+    FUZZ_TIMEOUT=${FUZZ_TIMEOUT:-20} scripts/fuzz.sh --seconds "${FUZZ_SECONDS:-30}" \
+      --build-dir "$san_dir" --jobs "$JOBS"
+    stage "test suite under ASan + UBSan ($san_dir)"
+    SANITIZE_FUZZ=ON CTEST_JOBS=$JOBS scripts/sanitize.sh asan "$san_dir"
+    stage "tsan-labelled tests under TSan ($tsan_dir)"
+    JOBS=$JOBS CTEST_JOBS=$JOBS scripts/sanitize.sh tsan "$tsan_dir"
+    stage_end ok
+    log "test: everything passed in $(($(date +%s) - t_start)) s"
+    ;;
+  -h|--help)
+    sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'
     ;;
   *)
-    echo "usage: scripts/setup.sh demo|test|build" >&2
+    echo "usage: scripts/setup.sh demo|test|build|--help" >&2
     exit 2
     ;;
 esac

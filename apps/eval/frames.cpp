@@ -66,7 +66,9 @@ std::vector<std::uint32_t> PickPings(const std::string& mission, const std::stri
   std::stable_sort(order.begin(), order.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
   std::vector<std::uint32_t> picked;
-  for (const auto& [score, id] : order) {
+  for (const auto& scored_ping : order) {
+    // Not a structured binding: clang 14 (the fuzz and sanitizer build) cannot capture one.
+    const std::uint32_t id = scored_ping.second;
     if (static_cast<int>(picked.size()) >= count) break;
     const bool far = std::all_of(picked.begin(), picked.end(), [&](std::uint32_t p) {
       return (p > id ? p - id : id - p) >= min_gap;

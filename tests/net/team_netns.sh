@@ -16,6 +16,16 @@
 # draco-fleet --mode inproc on the same mission (draco-eval of both folders, draco-fleet's 10 %
 # rule); case 4: frames sent after the link came back reached both sides. Prints a table of
 # what each case measured (docs/fleet.md, "A team across network namespaces").
+# Reported cases (not in the default list; DRACO_NETNS_CASES="5 6 7 8" runs them): what they
+# measure is printed as NOTEs, never failed, since on a loaded machine their timing varies:
+#   5  unicast, the whole team at 5 kbit/s with 20 % random loss on every robot's link
+#      (link.team_rate_bps=5000: draco's link spends that budget), against the in-process run
+#   6  the same at 1 kbit/s
+#   7  unicast, paced at 4x: bravo SIGKILLed 2.5 s after the start and restarted 1.5 s later
+#      (the teammates must see a restart and hear the new bravo)
+#   8  unicast: 3000 random UDP datagrams (1-1400 bytes) at every UDP port the daemons have
+#      open, sent from alpha's namespace within about 1 s, 1 s after the start; the verdicts must match case 2's
+#      (draco-eval of both against the in-process run)
 #
 #   sudo tests/net/team_netns.sh build/apps/sim/draco-sim build/apps/fleet/draco-fleet \
 #     build/apps/fleet/draco-robot build/apps/eval/draco-eval .
@@ -45,7 +55,14 @@ skip() {
   exit 77
 }
 failures=()
+notes=()
+reported=0  # 1 while a reported case runs: its failures become notes
 fail() {
+  if [ "$reported" = 1 ]; then
+    echo "NOTE (reported, not asserted): $*"
+    notes+=("$*")
+    return 0
+  fi
   echo "FAIL: $*"
   failures+=("$*")
 }
@@ -151,22 +168,13 @@ run_team() {
     echo "robots=${robots[*]}"
   } >"$meta"
   declare -A pid_of done_at before
+  local run_args=("$@")
   for r in "${robots[@]}"; do before[$r]=$(port_bytes "$r"); done
   domain=$((domain + 1))
   local start
   start=$(now_us)
   echo "start_us=$start" >>"$meta"
-  for r in "${robots[@]}"; do
-    # The flags draco-fleet --mode dds gives each daemon (apps/fleet/fleet_main.cpp), with the
-    # profile of the case; no DRACO_* or CYCLONEDDS_URI from the caller's environment.
-    ip netns exec "$pfx-$r" env -u CYCLONEDDS_URI -u DRACO_MISSION -u DRACO_BAG -u DRACO_TEAM \
-      -u DRACO_ROBOT -u DRACO_DOMAIN -u DRACO_DDS_CONFIG DRACO_DDS_PEERS="$peers" \
-      "$robot" --mission "$work/m" --robot "$r" --out "$dir" --graph "$graph" --rate "$rate" \
-      --quiet --log-level info --dds-config "$src/config/dds/$profile.xml" --domain "$domain" \
-      --set link.lockstep_timeout_s=5 "$@" >"$dir/$r.log" 2>&1 &
-    pid_of[$r]=$!
-    pids+=($!)
-  done
+  for r in "${robots[@]}"; do launch_robot "$r"; done
   local next=0 running elapsed stopping=0
   while :; do
     elapsed=$(($(now_us) - start))
@@ -214,6 +222,28 @@ run_team() {
   done
   pids=()  # all reaped: nothing for the cleanup to kill
   echo "== $title: $(secs $(($(now_us) - start))) s"
+}
+
+# launch_robot ROBOT: starts ROBOT's daemon in its namespace (again, for a restart: its log is
+# appended to). Called from run_team, whose dir, rate, profile, run_args and pid_of it uses.
+launch_robot() {
+  local r=$1
+  # The flags draco-fleet --mode dds gives each daemon (apps/fleet/fleet_main.cpp), with the
+  # profile of the case; no DRACO_* or CYCLONEDDS_URI from the caller's environment.
+  ip netns exec "$pfx-$r" env -u CYCLONEDDS_URI -u DRACO_MISSION -u DRACO_BAG -u DRACO_TEAM \
+    -u DRACO_ROBOT -u DRACO_DOMAIN -u DRACO_DDS_CONFIG DRACO_DDS_PEERS="$peers" \
+    "$robot" --mission "$work/m" --robot "$r" --out "$dir" --graph "$graph" --rate "$rate" \
+    --quiet --log-level info --dds-config "$src/config/dds/$profile.xml" --domain "$domain" \
+    --set link.lockstep_timeout_s=5 "${run_args[@]}" >>"$dir/$r.log" 2>&1 &
+  pid_of[$r]=$!
+  pids+=($!)
+}
+# Events of run_team: SIGKILL a robot's daemon; start it again (tracked as running again).
+kill_robot() { kill -KILL "${pid_of[$1]}" 2>/dev/null; }
+restart_robot() {
+  wait "${pid_of[$1]}" 2>/dev/null
+  launch_robot "$1"
+  unset "done_at[$1]"
 }
 
 # Common checks of a case: outputs parse; optionally every teammate heard and nothing rejected;
@@ -264,28 +294,41 @@ if [ -z "$loss_tool" ]; then
 elif ! command -v "$loss_tool" >/dev/null; then
   loss_tool=""
 fi
-shape() {  # shape ROBOT: tbf both ways, 10 % of the UDP datagrams dropped both ways
-  local r=$1 ns="$pfx-$1"
-  tc -n "$sw" qdisc add dev "p-$r" root tbf rate 62500bit burst 4kb latency 400ms &&
-    tc -n "$ns" qdisc add dev eth0 root tbf rate 62500bit burst 4kb latency 400ms || return 1
+# shape ROBOT [RATE_BIT_S LOSS_PER_MILLE]: tbf both ways (default 62500 bit/s), that share of
+# the UDP datagrams dropped both ways (default 100: 10 %). The tbf queue holds 400 ms at 62.5
+# kbit/s; at slower rates 8 s of traffic and at least 8000 bytes (DDS discovery comes in
+# bursts: a 3000-byte queue at 5 kbit/s dropped 3 of 4 datagrams going out and the team never
+# discovered itself within the 30 s startup timeout).
+shape() {
+  local r=$1 ns="$pfx-$1" rate_bit=${2:-62500} permille=${3:-100} queue
+  if [ "$rate_bit" -ge 62500 ]; then
+    queue="latency 400ms"
+  else
+    queue="limit $((rate_bit > 8000 ? rate_bit : 8000))"
+  fi
+  # shellcheck disable=SC2086
+  tc -n "$sw" qdisc add dev "p-$r" root tbf rate "${rate_bit}bit" burst 4kb $queue &&
+    tc -n "$ns" qdisc add dev eth0 root tbf rate "${rate_bit}bit" burst 4kb $queue || return 1
   if [ "$loss_tool" = nft ]; then
-    ip netns exec "$ns" nft -f - <<'EOF' || return 1
+    ip netns exec "$ns" nft -f - <<EOF || return 1
 table inet draco_loss {
   chain in {
     type filter hook input priority 0; policy accept;
-    iifname "eth0" meta l4proto udp numgen random mod 1000 < 100 counter drop
+    iifname "eth0" meta l4proto udp numgen random mod 1000 < $permille counter drop
   }
   chain out {
     type filter hook output priority 0; policy accept;
-    oifname "eth0" meta l4proto udp numgen random mod 1000 < 100 counter drop
+    oifname "eth0" meta l4proto udp numgen random mod 1000 < $permille counter drop
   }
 }
 EOF
   else
+    local p
+    p=$(awk -v m="$permille" 'BEGIN { printf "%.3f", m / 1000 }')
     ip netns exec "$ns" iptables -A INPUT -i eth0 -p udp -m statistic --mode random \
-      --probability 0.1 -j DROP &&
+      --probability "$p" -j DROP &&
       ip netns exec "$ns" iptables -A OUTPUT -o eth0 -p udp -m statistic --mode random \
-        --probability 0.1 -j DROP || return 1
+        --probability "$p" -j DROP || return 1
   fi
 }
 unshape() {
@@ -300,7 +343,7 @@ unshape() {
 }
 # What the shaping did: datagrams dropped by the loss rule and by the rate limit.
 shaping_note() {
-  local r=$1 ns="$pfx-$1" lost tbf_in tbf_out
+  local r=$1 ns="$pfx-$1" what=${2:-10 %} lost tbf_in tbf_out
   if [ "$loss_tool" = nft ]; then
     lost=$(ip netns exec "$ns" nft list table inet draco_loss | awk '/counter packets/ {
       for (i = 1; i <= NF; i++) if ($i == "packets") n += $(i + 1) } END { print n + 0 }')
@@ -309,7 +352,7 @@ shaping_note() {
   fi
   tbf_in=$(tc -s -n "$sw" qdisc show dev "p-$r" | awk '/dropped/ { gsub(",", ""); print $7 }')
   tbf_out=$(tc -s -n "$ns" qdisc show dev eth0 | awk '/dropped/ { gsub(",", ""); print $7 }')
-  echo "$r's link: $lost datagrams dropped by the 10 % loss rule ($loss_tool), tbf dropped $tbf_out going out and $tbf_in coming in"
+  echo "$r's link: $lost datagrams dropped by the $what loss rule ($loss_tool), tbf dropped $tbf_out going out and $tbf_in coming in"
 }
 if case_on 3; then
   if ! command -v tc >/dev/null; then
@@ -370,9 +413,99 @@ if case_on 4; then
   ran+=(c4)
 fi
 
+# --- reported cases ------------------------------------------------------------------------
+reported=1
+
+# --- 5, 6: the whole team at 5 and 1 kbit/s, 20 % loss on every link ----------------------
+for c in 5 6; do
+  case_on $c || continue
+  if ! command -v tc >/dev/null || [ -z "$loss_tool" ]; then
+    echo "SKIP case $c: needs tc and nft or iptables"
+    continue
+  fi
+  if [ $c = 5 ]; then bps=5000; else bps=1000; fi
+  title="$c team $((bps / 1000))k+20%"
+  shaped=()
+  for r in "${robots[@]}"; do
+    if ! err=$(shape "$r" "$bps" 200 2>&1); then
+      fail "case $c: cannot shape $r's link: $err"
+      break
+    fi
+    shaped+=("$r")
+  done
+  if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
+    # Discovery alone takes minutes at these rates: 240 s to find the teammates.
+    run_team "c$c" "$title" unicast 0 420 -- --set link.lockstep_timeout_s=30 \
+      --set link.startup_timeout_s=240 --set link.team_rate_bps=$bps
+    note=""
+    for r in "${robots[@]}"; do note="$note${note:+; }$(shaping_note "$r" "20 %")"; done
+    check_case "c$c" "$title" heard compare
+    echo "note=$note" >>"$work/c$c/meta.txt"
+    ran+=("c$c")
+  fi
+  for r in "${shaped[@]}"; do unshape "$r"; done
+done
+
+# --- 7: bravo killed and restarted ---------------------------------------------------------
+if case_on 7; then
+  run_team c7 "7 bravo killed, restarted" unicast 4 120 \
+    2.5 "kill_robot bravo" \
+    4.0 "restart_robot bravo" \
+    -- --set link.lockstep_timeout_s=2
+  check_case c7 "7 bravo killed, restarted" heard no-compare
+  python3 - "$work/c7" <<'PY' || fail "7: the teammates did not hear the restarted bravo"
+import json, sys
+for r in ("alpha", "charlie"):
+    s = json.load(open("%s/%s.link_stats.json" % (sys.argv[1], r)))
+    b = [t for t in s["teammates"] if t["robot_id"] == 1][0]
+    assert b["restarts"] >= 1 and b["frames_since_restart"] > 0, (r, b)
+PY
+  echo "note=bravo SIGKILLed at 2.5 s and started again at 4.0 s (wall, paced 4x)" >>"$work/c7/meta.txt"
+  ran+=(c7)
+fi
+
+# --- 8: random UDP datagrams at the daemons' ports -----------------------------------------
+# spray_udp: from alpha's namespace, 3000 datagrams of 1-1400 random bytes within ~1 s, spread
+# over every UDP port the three daemons have open (each robot's address).
+spray_udp() {
+  local targets=() r port
+  for r in "${robots[@]}"; do
+    for port in $(ip netns exec "$pfx-$r" ss -Hunl 2>/dev/null |
+      awk '{ n = split($4, a, ":"); print a[n] }' | sort -u); do
+      targets+=("${addr[$r]}:$port")
+    done
+  done
+  echo "spray.targets=${#targets[@]}" >>"$work/c8/meta.txt"
+  ip netns exec "$pfx-${robots[0]}" python3 - "${targets[@]}" <<'PY' &
+import os, random, socket, sys, time
+targets = [(t.rsplit(":", 1)[0], int(t.rsplit(":", 1)[1])) for t in sys.argv[1:]]
+if targets:
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for i in range(3000):
+        try:
+            s.sendto(os.urandom(random.randint(1, 1400)), random.choice(targets))
+        except OSError:
+            pass
+        if i % 100 == 99:
+            time.sleep(0.02)
+PY
+}
+if case_on 8; then
+  run_team c8 "8 random UDP at DDS" unicast 0 120 1.0 "spray_udp"
+  wait 2>/dev/null
+  check_case c8 "8 random UDP at DDS" heard compare
+  echo "note=3000 random datagrams (1-1400 bytes) at every open UDP port of the daemons ($(sed -n 's/^spray.targets=//p' "$work/c8/meta.txt") ports), from 1 s" >>"$work/c8/meta.txt"
+  ran+=(c8)
+fi
+reported=0
+
 echo
 python3 "$check" table "$work" "${ran[@]}"
 echo
+if [ ${#notes[@]} -gt 0 ]; then
+  echo "NOTES of the reported cases (${#notes[@]}):"
+  printf '  %s\n' "${notes[@]}"
+fi
 if [ ${#failures[@]} -gt 0 ]; then
   echo "FAILED (${#failures[@]}):"
   printf '  %s\n' "${failures[@]}"

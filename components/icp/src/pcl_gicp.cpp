@@ -42,18 +42,22 @@ std::shared_ptr<Covariances> WallCovariances(const Cloud2& points, const KdTree2
   return out;
 }
 
-struct Prepared final : IcpTarget::BackendCache {
+// A name of its own in each back end: the caches of all back ends share one slot and are told
+// apart by dynamic_cast, and clang compares the type_info of classes in anonymous namespaces
+// by name, so equal names in two files made one back end take the other's cache (ASan:
+// heap-use-after-free in Backends.PreparedTargetServesManySourcesAndBackEnds).
+struct PclGicpPrepared final : IcpTarget::BackendCache {
   Gicp gicp;
   std::shared_ptr<Covariances> target_covariances;
   int neighbors = -1;
 };
 
-Prepared& Prepare(IcpTarget& target, int neighbors) {
+PclGicpPrepared& Prepare(IcpTarget& target, int neighbors) {
   auto& slot = target.backend_cache();
-  auto* p = dynamic_cast<Prepared*>(slot.get());
+  auto* p = dynamic_cast<PclGicpPrepared*>(slot.get());
   if (p == nullptr) {
     pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-    auto fresh = std::make_unique<Prepared>();
+    auto fresh = std::make_unique<PclGicpPrepared>();
     p = fresh.get();
     slot = std::move(fresh);
   }

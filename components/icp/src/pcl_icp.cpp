@@ -14,21 +14,25 @@ using Icp = Counted<pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ, dou
 
 // The target's PCL cloud and an ICP object holding it (its kd-tree is built on the first
 // alignment and kept).
-struct Prepared final : IcpTarget::BackendCache {
+// A name of its own in each back end: the caches of all back ends share one slot and are told
+// apart by dynamic_cast, and clang compares the type_info of classes in anonymous namespaces
+// by name, so equal names in two files made one back end take the other's cache (ASan:
+// heap-use-after-free in Backends.PreparedTargetServesManySourcesAndBackEnds).
+struct PclIcpPrepared final : IcpTarget::BackendCache {
   Icp icp;
 };
 
-Prepared& Prepare(IcpTarget& target) {
+PclIcpPrepared& Prepare(IcpTarget& target) {
   auto& slot = target.backend_cache();
-  if (auto* p = dynamic_cast<Prepared*>(slot.get())) return *p;
+  if (auto* p = dynamic_cast<PclIcpPrepared*>(slot.get())) return *p;
   // Expected failures (too few correspondences) are answers here, not console messages.
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  auto p = std::make_unique<Prepared>();
+  auto p = std::make_unique<PclIcpPrepared>();
   p->icp.setInputTarget(ToPcl(target.points()));
   p->icp.setTransformationEstimation(
       std::make_shared<
           pcl::registration::TransformationEstimation2D<pcl::PointXYZ, pcl::PointXYZ, double>>());
-  Prepared& out = *p;
+  PclIcpPrepared& out = *p;
   slot = std::move(p);
   return out;
 }

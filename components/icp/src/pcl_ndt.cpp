@@ -11,17 +11,21 @@ namespace {
 using Ndt = Counted<pcl::NormalDistributionsTransform<pcl::PointXYZ, pcl::PointXYZ, double>>;
 
 // The target's voxel grid (built by setInputTarget, rebuilt when the resolution changes).
-struct Prepared final : IcpTarget::BackendCache {
+// A name of its own in each back end: the caches of all back ends share one slot and are told
+// apart by dynamic_cast, and clang compares the type_info of classes in anonymous namespaces
+// by name, so equal names in two files made one back end take the other's cache (ASan:
+// heap-use-after-free in Backends.PreparedTargetServesManySourcesAndBackEnds).
+struct PclNdtPrepared final : IcpTarget::BackendCache {
   Ndt ndt;
   double resolution_m = -1.0;
 };
 
-Prepared& Prepare(IcpTarget& target, double resolution_m) {
+PclNdtPrepared& Prepare(IcpTarget& target, double resolution_m) {
   auto& slot = target.backend_cache();
-  auto* p = dynamic_cast<Prepared*>(slot.get());
+  auto* p = dynamic_cast<PclNdtPrepared*>(slot.get());
   if (p == nullptr) {
     pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-    auto fresh = std::make_unique<Prepared>();
+    auto fresh = std::make_unique<PclNdtPrepared>();
     p = fresh.get();
     slot = std::move(fresh);
   }
