@@ -49,8 +49,10 @@ PY
 done
 
 # Kill bravo about a third of the way in (paced at 8x: 40 s of mission in ~5 s) and restart it.
+# Slow builds scale the pace with the kill time (8 / factor), so the kill still falls inside
+# the run: a sanitizer build that keeps up with 8x would otherwise finish before it.
 "$fleet" "$work/m" --mode dds --out "$work/kill" --domain "$domain" --kill bravo \
-  --kill-after-s "$(scaled 1.5)" --restart-after-s 0.5 --rate 8 --set link.lockstep_timeout_s=2 \
+  --kill-after-s "$(scaled 1.5)" --restart-after-s 0.5 --rate "$(awk -v f="$factor" 'BEGIN { print 8 / f }')" --set link.lockstep_timeout_s=2 \
   >"$work/kill.log" 2>&1 || { cat "$work/kill.log"; fail "kill/restart run failed"; }
 cat "$work/kill.log"
 grep -q "restarted bravo" "$work/kill.log" || fail "bravo was not restarted"
