@@ -7,6 +7,25 @@
 
 namespace draco::navigation {
 
+msgs::Covariance3 IncrementCovariance(const msgs::Pose2& inc, double dt_s,
+                                      double velocity_sigma_mps,
+                                      double yaw_random_walk_rad_per_sqrt_s) {
+  const double var_t = (velocity_sigma_mps * dt_s) * (velocity_sigma_mps * dt_s);
+  const double var_y = yaw_random_walk_rad_per_sqrt_s * yaw_random_walk_rad_per_sqrt_s * dt_s;
+  const double ci = std::cos(inc.yaw_rad), si = std::sin(inc.yaw_rad);
+  const double lx = ci * inc.x_m + si * inc.y_m, ly = -si * inc.x_m + ci * inc.y_m;
+  const double g[2] = {-ly, lx};
+  return {var_t + var_y * g[0] * g[0],
+          var_y * g[0] * g[1],
+          var_y * g[0],
+          var_y * g[1] * g[0],
+          var_t + var_y * g[1] * g[1],
+          var_y * g[1],
+          var_y * g[0],
+          var_y * g[1],
+          var_y};
+}
+
 void DeadReckoner::AddAhrs(const msgs::Ahrs& ahrs) {
   if (!have_ahrs_) {
     yaw_offset_rad_ = options_.yaw_relative_to_first ? ahrs.yaw_rad : 0.0;
@@ -69,23 +88,8 @@ std::optional<msgs::DeadReckoning> DeadReckoner::AddDvl(const msgs::DvlVelocity&
   pose_ = msgs::Pose2{pose_.x_m + c * ax - s * ay, pose_.y_m + s * ax + c * ay, yaw_rad_};
   const msgs::Pose2 inc = se2::Between(previous, pose_);
 
-  // Increment covariance in the new body frame: isotropic velocity noise, the yaw random
-  // walk, and the translation error that a yaw error causes (g = S R_inc^T t_inc).
-  const double var_t = (sigma * dt) * (sigma * dt);
-  const double var_y =
-      options_.yaw_random_walk_rad_per_sqrt_s * options_.yaw_random_walk_rad_per_sqrt_s * dt;
-  const double ci = std::cos(inc.yaw_rad), si = std::sin(inc.yaw_rad);
-  const double lx = ci * inc.x_m + si * inc.y_m, ly = -si * inc.x_m + ci * inc.y_m;
-  const double g[2] = {-ly, lx};
-  out.covariance_prev_body = {var_t + var_y * g[0] * g[0],
-                              var_y * g[0] * g[1],
-                              var_y * g[0],
-                              var_y * g[1] * g[0],
-                              var_t + var_y * g[1] * g[1],
-                              var_y * g[1],
-                              var_y * g[0],
-                              var_y * g[1],
-                              var_y};
+  out.covariance_prev_body =
+      IncrementCovariance(inc, dt, sigma, options_.yaw_random_walk_rad_per_sqrt_s);
   out.T_odom_body = pose_;
   out.T_prev_body = inc;
   out.velocity_body_mps = {v[0], v[1]};

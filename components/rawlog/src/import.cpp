@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "draco/navigation/dead_reckoning.hpp"
 #include "draco/navigation/se2.hpp"
 
 namespace draco::rawlog {
@@ -24,23 +25,8 @@ std::vector<Message> ToMessages(const std::vector<Entry>& entries, const ImportO
         const double dt = std::max(odo->time_s - previous.time_s, 0.0);
         const msgs::Pose2 inc = se2::Between(previous.T_odom_body, odo->T_odom_body);
         d.T_prev_body = inc;
-        // As navigation::DeadReckoner: velocity noise over dt, the yaw random walk, and the
-        // translation error a yaw error causes (g = S R_inc^T t_inc).
-        const double var_t = (o.velocity_sigma_mps * dt) * (o.velocity_sigma_mps * dt);
-        const double var_y =
-            o.yaw_random_walk_rad_per_sqrt_s * o.yaw_random_walk_rad_per_sqrt_s * dt;
-        const double ci = std::cos(inc.yaw_rad), si = std::sin(inc.yaw_rad);
-        const double lx = ci * inc.x_m + si * inc.y_m, ly = -si * inc.x_m + ci * inc.y_m;
-        const double g[2] = {-ly, lx};
-        d.covariance_prev_body = {var_t + var_y * g[0] * g[0],
-                                  var_y * g[0] * g[1],
-                                  var_y * g[0],
-                                  var_y * g[1] * g[0],
-                                  var_t + var_y * g[1] * g[1],
-                                  var_y * g[1],
-                                  var_y * g[0],
-                                  var_y * g[1],
-                                  var_y};
+        d.covariance_prev_body = navigation::IncrementCovariance(inc, dt, o.velocity_sigma_mps,
+                                                                 o.yaw_random_walk_rad_per_sqrt_s);
         if (dt > 0.0) {
           d.velocity_body_mps = {inc.x_m / dt, inc.y_m / dt};
         }

@@ -33,6 +33,13 @@ struct DeadReckoningOptions {
   double yaw_random_walk_rad_per_sqrt_s = 0.0035;
 };
 
+// Covariance of a dead-reckoning increment `inc` over dt_s, in the new body frame: isotropic
+// velocity noise (velocity_sigma_mps * dt_s per axis), the yaw random walk, and the
+// translation error that a yaw error causes (g = S R_inc^T t_inc).
+msgs::Covariance3 IncrementCovariance(const msgs::Pose2& inc, double dt_s,
+                                      double velocity_sigma_mps,
+                                      double yaw_random_walk_rad_per_sqrt_s);
+
 class DeadReckoner {
  public:
   explicit DeadReckoner(const DeadReckoningOptions& options = {}) : options_(options) {}
