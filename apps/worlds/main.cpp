@@ -77,7 +77,7 @@ struct WorldRow {
   int robots = 0;
   int pairs = 0, right = 0, wrong = 0, none = 0;
   int wrong_ever = 0;  // pairs placed wrong at some time
-  int eligible = 0;    // pairs with path overlap >= 30 %
+  int eligible = 0;    // pairs sharing >= 5 objects with path overlap >= 30 %
   int eligible_right = 0;
   int accepted = 0, accepted_true = 0, candidates_true = 0;
   double precision = NAN, recall = NAN;
@@ -133,7 +133,7 @@ WorldRow Evaluate(const std::string& name, const std::string& run_dir,
     w.wrong += v == "wrong";
     w.none += v == "none";
     w.wrong_ever += p.first_wrong_s >= 0.0;
-    if (p.path_overlap >= 0.3) {
+    if (p.eligible) {
       ++w.eligible;
       w.eligible_right += v == "right";
     }
@@ -224,12 +224,13 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
        Fmt(precision, "%.3f") + " (lowest " + Fmt(min_precision, "%.3f") + ") | " +
        Fmt(recall, "%.2f") + " | | | |\n";
   char summary[400];
-  std::snprintf(summary, sizeof summary,
-                "\nOrdered pairs: %d; placed right %d, placed wrong at the end %d (%.1f %%), "
-                "placed wrong at some time %d, not placed %d. Pairs whose paths overlap >= 30 %%: "
-                "%d of %d placed right.\n",
-                t.pairs, t.right, t.wrong, t.pairs ? 100.0 * t.wrong / t.pairs : 0.0, t.wrong_ever,
-                t.none, t.eligible_right, t.eligible);
+  std::snprintf(
+      summary, sizeof summary,
+      "\nOrdered pairs: %d; placed right %d, placed wrong at the end %d (%.1f %%), "
+      "placed wrong at some time %d, not placed %d. Pairs that share >= 5 objects and whose "
+      "paths overlap >= 30 %%: %d of %d placed right.\n",
+      t.pairs, t.right, t.wrong, t.pairs ? 100.0 * t.wrong / t.pairs : 0.0, t.wrong_ever, t.none,
+      t.eligible_right, t.eligible);
   return s + summary;
 }
 
@@ -242,7 +243,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> missions, overrides;
   int robots = 0;
   double duration_s = 0.0;
-  bool keep = false;
+  bool keep = false, judge_only = false;
   app.add_option("--seeds", seeds_text, "seeds: 101-130 or 1,5,9 (draco-sim generate)");
   app.add_option("--mission", missions, "a recorded mission folder to run as a row too");
   app.add_option("--out", out, "output folder")->capture_default_str();
@@ -251,6 +252,8 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", duration_s, "cap each robot's mission (draco-sim)");
   app.add_option("--set", overrides, "component.param=value for every robot (draco-fleet)");
   app.add_flag("--keep-missions", keep, "keep the recordings (1-3 GB each)");
+  app.add_flag("--judge", judge_only,
+               "judge the runs already in --out again (same --seeds/--mission), run nothing");
   app.set_version_flag("--version", draco::app::VersionLine("draco-worlds"));
   CLI11_PARSE(app, argc, argv);
   try {
@@ -268,11 +271,12 @@ int main(int argc, char** argv) {
     fs::create_directories(out);
     auto run_info = draco::app::MakeRunInfo("draco-worlds", argc, argv);
     if (!style.empty()) run_info.AddFile("style", style);
-    draco::app::WriteRunInfo(out, run_info);
+    if (!judge_only) draco::app::WriteRunInfo(out, run_info);  // --judge keeps the run's
     std::vector<WorldRow> rows;
     std::string pairs_csv =
         "world,own,teammate,path_overlap,verdict,final_err_m,final_err_deg,first_placed_s,"
-        "first_right_s,first_wrong_s,wrong_duration_s,max_wrong_err_m,changes\n";
+        "first_right_s,first_wrong_s,wrong_duration_s,max_wrong_err_m,changes,shared_objects,"
+        "eligible\n";
     const auto write = [&] {
       draco::graph::WriteFileAtomicallyOrThrow(out + "/worlds.csv", WorldsCsv(rows));
       draco::graph::WriteFileAtomicallyOrThrow(out + "/pairs.csv", pairs_csv);
@@ -316,7 +320,14 @@ int main(int argc, char** argv) {
       w.name = job.name;
       std::printf("[%d/%zu] %s: ", done + 1, jobs.size(), job.name.c_str());
       std::fflush(stdout);
-      if (mission_dir.empty()) {
+      if (judge_only) {
+        periodic = ReadKeyValues(dir / "scenario" / "scenario.txt")["periodic"];
+        if (periodic.empty()) periodic = "-";
+        // Ground truth from the kept recording, else the copies the run wrote.
+        if (mission_dir.empty() && fs::exists(dir / "mission" / "mission.yaml"))
+          mission_dir = (dir / "mission").string();
+        if (!fs::exists(dir / "run" / "inproc")) w.status = "no run to judge";
+      } else if (mission_dir.empty()) {
         const std::string scenario = (dir / "scenario").string();
         std::vector<std::string> gen{sim,     "generate", "--seed", std::to_string(job.seed),
                                      "--out", scenario};
@@ -336,8 +347,9 @@ int main(int argc, char** argv) {
         }
       }
       const std::string run = (dir / "run").string();
-      fs::remove_all(run);  // draco-worlds' own: an earlier run's files must not be judged
-      if (w.status == "ok") {
+      // draco-worlds' own: an earlier run's files must not be judged.
+      if (!judge_only) fs::remove_all(run);
+      if (w.status == "ok" && !judge_only) {
         std::printf("team, ");
         std::fflush(stdout);
         std::vector<std::string> args{fleet,   mission_dir, "--mode",      "inproc",
@@ -350,7 +362,7 @@ int main(int argc, char** argv) {
       } else {
         w.periodic = periodic;
       }
-      if (job.mission.empty() && !keep) fs::remove_all(mission_dir);
+      if (job.mission.empty() && !keep && !judge_only) fs::remove_all(mission_dir);
       w.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       rows.push_back(w);
       ++done;

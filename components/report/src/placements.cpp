@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "csv.hpp"
 #include "draco/eval/trajectory.hpp"
@@ -58,6 +59,19 @@ std::pair<double, double> Error(const Se2& est, const Se2& truth, const eval::Tr
           std::abs(eval::WrapAngle(est.yaw - truth.yaw)) / kDeg};
 }
 
+// Object centres of <robot>.objects.csv (its map frame); nullopt when the file is missing.
+// A malformed file throws (internal::ReadCsv names the file and line).
+std::optional<std::vector<std::pair<double, double>>> ReadObjectCentres(const fs::path& p) {
+  if (!fs::exists(p)) return std::nullopt;
+  const auto csv = internal::ReadCsv(p.string());
+  const std::size_t x = csv.Col("center_x_m"), y = csv.Col("center_y_m");
+  std::vector<std::pair<double, double>> out;
+  for (std::size_t r = 0; r < csv.rows.size(); ++r) {
+    out.emplace_back(csv.Number(r, x), csv.Number(r, y));
+  }
+  return out;
+}
+
 }  // namespace
 
 PlacementResult EvaluatePlacements(const std::string& run_dir, const std::string& mission_dir,
@@ -70,6 +84,8 @@ PlacementResult EvaluatePlacements(const std::string& run_dir, const std::string
   std::vector<Se2> T_world_map(n);
   std::vector<bool> usable(n, false);
   std::vector<std::vector<std::pair<double, double>>> true_xy(n);
+  // Final object centres in the world (each map placed by its T_world_map); nullopt: none.
+  std::vector<std::optional<std::vector<std::pair<double, double>>>> objects_world(n);
   for (std::size_t i = 0; i < n; ++i) {
     try {
       keyframes[i] = ReadIfExists(dir / (team[i] + ".trajectory.tum"));
@@ -88,6 +104,14 @@ PlacementResult EvaluatePlacements(const std::string& run_dir, const std::string
       for (const auto& p : assoc.truth) true_xy[i].push_back({p.x_m, p.y_m});
       out.end_s = std::max(out.end_s, keyframes[i].back().time_s);
       usable[i] = true;
+      objects_world[i] = ReadObjectCentres(dir / (team[i] + ".objects.csv"));
+      if (objects_world[i]) {
+        for (auto& [x, y] : *objects_world[i]) {
+          const Se2 w = Compose(T_world_map[i], {x, y, 0.0});
+          x = w.x;
+          y = w.y;
+        }
+      }
     } catch (const std::exception& e) {
       out.problems.push_back(team[i] + ": " + e.what());
     }
@@ -164,6 +188,19 @@ PlacementResult EvaluatePlacements(const std::string& run_dir, const std::string
           }
         }
         pp.path_overlap = true_xy[j].empty() ? 0.0 : static_cast<double>(near) / true_xy[j].size();
+        if (objects_world[i] && objects_world[j]) {
+          pp.shared_objects = 0;
+          for (const auto& [xa, ya] : *objects_world[i]) {
+            for (const auto& [xb, yb] : *objects_world[j]) {
+              if (std::hypot(xa - xb, ya - yb) <= options.shared_object_radius_m) {
+                ++pp.shared_objects;
+                break;
+              }
+            }
+          }
+        }
+        pp.eligible = pp.path_overlap >= options.min_path_overlap &&
+                      pp.shared_objects >= options.min_shared_objects;
       }
       const auto it = rows.find(j);
       if (it == rows.end() || !usable[i] || !usable[j]) {
@@ -202,13 +239,14 @@ PlacementResult EvaluatePlacements(const std::string& run_dir, const std::string
 std::string PlacementsCsv(const PlacementResult& result) {
   std::string s =
       "own,teammate,path_overlap,verdict,final_err_m,final_err_deg,first_placed_s,first_right_s,"
-      "first_wrong_s,wrong_duration_s,max_wrong_err_m,changes\n";
+      "first_wrong_s,wrong_duration_s,max_wrong_err_m,changes,shared_objects,eligible\n";
   char line[400];
   for (const auto& p : result.pairs) {
-    std::snprintf(line, sizeof line, "%s,%s,%.3f,%s,%.3f,%.2f,%.1f,%.1f,%.1f,%.1f,%.2f,%d\n",
+    std::snprintf(line, sizeof line, "%s,%s,%.3f,%s,%.3f,%.2f,%.1f,%.1f,%.1f,%.1f,%.2f,%d,%d,%d\n",
                   p.own.c_str(), p.teammate.c_str(), p.path_overlap, p.Verdict(), p.final_err_m,
                   p.final_err_deg, p.first_placed_s, p.first_right_s, p.first_wrong_s,
-                  p.wrong_duration_s, p.max_wrong_err_m, p.changes);
+                  p.wrong_duration_s, p.max_wrong_err_m, p.changes, p.shared_objects,
+                  p.eligible ? 1 : 0);
     s += line;
   }
   return s;
@@ -216,8 +254,9 @@ std::string PlacementsCsv(const PlacementResult& result) {
 
 std::string PlacementsMarkdown(const PlacementResult& result) {
   std::string s =
-      "| own | teammate | path overlap | final | error (m / deg) | first right (s) | wrong for (s) "
-      "| worst wrong (m) |\n|---|---|---|---|---|---|---|---|\n";
+      "| own | teammate | path overlap | shared objects | final | error (m / deg) | first right "
+      "(s) "
+      "| wrong for (s) | worst wrong (m) |\n|---|---|---|---|---|---|---|---|---|\n";
   char line[400];
   for (const auto& p : result.pairs) {
     char err[64] = "-", first[32] = "-", wrong[32] = "-", worst[32] = "-";
@@ -228,9 +267,11 @@ std::string PlacementsMarkdown(const PlacementResult& result) {
       std::snprintf(wrong, sizeof wrong, "%.0f", p.wrong_duration_s);
       std::snprintf(worst, sizeof worst, "%.1f", p.max_wrong_err_m);
     }
-    std::snprintf(line, sizeof line, "| %s | %s | %.0f %% | %s | %s | %s | %s | %s |\n",
-                  p.own.c_str(), p.teammate.c_str(), 100.0 * p.path_overlap, p.Verdict(), err,
-                  first, wrong, worst);
+    char shared[32] = "-";
+    if (p.shared_objects >= 0) std::snprintf(shared, sizeof shared, "%d", p.shared_objects);
+    std::snprintf(line, sizeof line, "| %s | %s | %.0f %% | %s | %s | %s | %s | %s | %s |\n",
+                  p.own.c_str(), p.teammate.c_str(), 100.0 * p.path_overlap, shared, p.Verdict(),
+                  err, first, wrong, worst);
     s += line;
   }
   return s;

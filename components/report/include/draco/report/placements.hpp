@@ -18,6 +18,14 @@ struct PlacementJudgeOptions {
   double right_m = 2.0;  // a placement within right_m and right_deg is right, else wrong
   double right_deg = 5.0;
   double overlap_radius_m = 10.0;  // path overlap: teammate keyframes this close to own path
+  // A pair is eligible (the "pairs that share >= 5 objects and >= 30 % path overlap")
+  // when both hold: the paths overlap by min_path_overlap, and min_shared_objects of the own
+  // robot's final object map (<own>.objects.csv) have a teammate object within
+  // shared_object_radius_m in the world (each map placed by its T_world_map), as
+  // draco-frontend-eval counts them.
+  double min_path_overlap = 0.3;
+  int min_shared_objects = 5;
+  double shared_object_radius_m = 2.0;
 };
 
 struct PairPlacement {
@@ -26,10 +34,14 @@ struct PairPlacement {
   // Fraction of the teammate's keyframes (true positions) within overlap_radius_m of the own
   // robot's true keyframe positions.
   double path_overlap = 0.0;
-  int changes = 0;                // rows of placements.csv for this teammate
-  double first_placed_s = -1.0;   // mission time of the first placement (-1: never)
-  double first_right_s = -1.0;    // ... of the first right placement
-  double first_wrong_s = -1.0;    // ... of the first wrong placement
+  // Own objects with a teammate object within shared_object_radius_m in the world; -1 when
+  // either robot's objects.csv is missing or unreadable (then the pair is not eligible).
+  int shared_objects = -1;
+  bool eligible = false;         // path_overlap and shared_objects both reach the options' minimums
+  int changes = 0;               // rows of placements.csv for this teammate
+  double first_placed_s = -1.0;  // mission time of the first placement (-1: never)
+  double first_right_s = -1.0;   // ... of the first right placement
+  double first_wrong_s = -1.0;   // ... of the first wrong placement
   double wrong_duration_s = 0.0;  // mission time spent placed wrong
   double max_wrong_err_m = 0.0;   // largest error of a wrong placement
   // At the end of the run.
