@@ -324,6 +324,59 @@ TEST(Matcher, HeadingVotesRefuseARowShiftedByASpacing) {
   EXPECT_TRUE(loose.by_votes);
 }
 
+// The spectral path's RANSAC sees one one-to-one assignment, which along a row of identical
+// piles holds one shift only, so it answers: the shift that lays most piles on each other. The
+// translation votes see every shift; with the cross-check, a distinct shift nearly as well
+// supported as the answer (beyond a two-point sample, half of its support or more) refuses it.
+// Objects of distinctive shape beside the row, seen by both robots, make the truth the clear
+// best: the answer then stands, and it is the truth.
+TEST(Matcher, VotesCrossCheckRefusesARowAndKeepsADistinctiveScene) {
+  std::vector<msgs::Object> world;
+  const auto add = [&](double x, double y, double length, double breadth, double yaw) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(world.size());
+    o.center = o.rect_center = {x, y};
+    o.length_m = length;
+    o.breadth_m = breadth;
+    o.yaw_rad = yaw;
+    world.push_back(o);
+  };
+  for (int i = 0; i < 12; ++i) add(5.0 * i, 0.0, 0.6, 0.6, 0.0);
+  const msgs::Pose2 T_w_a{-5.0, 3.0, 0.3}, T_w_b{40.0, -2.0, -1.1};
+  const msgs::Pose2 truth = Compose(Inverse(T_w_a), T_w_b);
+  const WorldOptions wo{.center_noise_m = 0.1, .size_noise_m = 0.02};
+  MatcherOptions o;
+  o.landmarks = false;
+  o.heading_vote_min_inliers = 5;
+  o.cross_check_max_ambiguity = 0.5;
+  const auto match = [&](const std::vector<int>& seen_a, const std::vector<int>& seen_b,
+                         bool cross_check) {
+    std::mt19937_64 rng(8);
+    msgs::ObjectMap a = View(world, seen_a, T_w_a, 0, wo, &rng);
+    msgs::ObjectMap b = View(world, seen_b, T_w_b, 0, wo, &rng);
+    a.map_heading_rad = 0.3 + 0.02;
+    b.map_heading_rad = -1.1 - 0.03;
+    MatcherOptions oo = o;
+    oo.votes_cross_check = cross_check;
+    return MatchObjectMaps(a, b, oo);
+  };
+  const std::vector<int> row_a{0, 1, 2, 3, 4, 5, 6, 7, 8}, row_b{3, 4, 5, 6, 7, 8, 9, 10, 11};
+  const auto off = match(row_a, row_b, false);
+  ASSERT_EQ(off.status, MatchStatus::kMatched);  // a shift of the row
+  EXPECT_FALSE(Close(off.T_a_b, truth, 1.0, 3.0));
+  EXPECT_EQ(match(row_a, row_b, true).status, MatchStatus::kAmbiguous);
+  // A hull, two boxes and two blocks beside the row; both robots see them and piles 2-8.
+  add(22.0, 9.0, 9.0, 3.0, 0.2);
+  add(31.0, -7.0, 2.0, 1.2, 1.0);
+  add(36.0, 8.0, 3.5, 3.0, 0.5);
+  add(12.0, -9.0, 4.0, 1.0, 2.0);
+  add(17.0, 12.0, 2.5, 2.5, 0.0);
+  std::vector<int> seen{2, 3, 4, 5, 6, 7, 8, 12, 13, 14, 15, 16};
+  const auto on = match(seen, seen, true);
+  ASSERT_EQ(on.status, MatchStatus::kMatched);
+  EXPECT_TRUE(Close(on.T_a_b, truth, 1.0, 3.0));
+}
+
 TEST(Matcher, CoverageAndMisses) {
   const RowScene s = MakeRow(1);
   const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};

@@ -230,6 +230,14 @@ class GraphMatcherComponent final : public graph::Component {
                {.doc = "... and a distinct runner-up below this fraction of the winner's "
                        "support beyond a two-point sample",
                 .min = 0.0});
+    spec.Param("votes_cross_check", &o_.matcher.votes_cross_check,
+               {.doc = "an answer of the object graphs is checked against the translation "
+                       "votes: a distinct vote at least as well supported replaces it (clear "
+                       "winner) or refuses it (ambiguous)"});
+    spec.Param("cross_check_max_ambiguity", &o_.matcher.cross_check_max_ambiguity,
+               {.doc = "... the answer stands when the best distinct translation's support is "
+                       "below this fraction of the answer's, beyond a two-point sample",
+                .min = 0.0});
     spec.Param("prefix", &prefix_,
                {.doc = "output file name prefix, e.g. the robot name; writes "
                        "<prefix>matches.csv (every matching tried)"});

@@ -568,9 +568,49 @@ msgs::ObjectMatch MatchSpectral(const ObjectMap& a, const ObjectMap& b,
   return match;
 }
 
+// Objects the translation votes may pair: both landmarks, or both clusters of similar shape.
+bool VoteCompatible(const msgs::Object& p, const msgs::Object& q, const MatcherOptions& options) {
+  if (p.landmark != q.landmark) return false;
+  return p.landmark || Shape(p, q, options) >= options.min_shape_similarity;
+}
+
+// Support of T_a_b as the votes count it: b objects landing within heading_vote_inlier_m of a
+// compatible a object.
+int VoteSupport(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
+                const MatcherOptions& options) {
+  int n = 0;
+  for (const auto& ob : b.objects) {
+    const Point2 q = Transform(T, ob.center);
+    for (const auto& oa : a.objects) {
+      if (Distance(oa.center, q) < options.heading_vote_inlier_m &&
+          VoteCompatible(oa, ob, options)) {
+        ++n;
+        break;
+      }
+    }
+  }
+  return n;
+}
+
+// Two transforms are distinct when they move b's objects apart by more than distinct_m on
+// average.
+bool Distinct(const ObjectMap& b, const Pose2& x, const Pose2& y, double distinct_m) {
+  if (b.objects.empty()) return false;
+  double moved = 0.0;
+  for (const auto& ob : b.objects)
+    moved += Distance(Transform(x, ob.center), Transform(y, ob.center));
+  return moved / double(b.objects.size()) > distinct_m;
+}
+
+// Every hypothesis the votes scored (the densest blocks at each rotation), for a cross-check.
+struct VotePeaks {
+  std::vector<Pose2> T;
+  std::vector<int> support;
+};
+
 // Translation votes under a known rotation (MatcherOptions::heading_votes).
 msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, double yaw_prior,
-                                      const MatcherOptions& options) {
+                                      const MatcherOptions& options, VotePeaks* scored = nullptr) {
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
@@ -580,8 +620,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
     return match;
   }
   const auto compatible = [&](const msgs::Object& p, const msgs::Object& q) {
-    if (p.landmark != q.landmark) return false;
-    return p.landmark || Shape(p, q, options) >= options.min_shape_similarity;
+    return VoteCompatible(p, q, options);
   };
   std::vector<std::pair<int, int>> cand;
   for (int i = 0; i < na; ++i) {
@@ -595,20 +634,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
     return match;
   }
   const double thr = options.heading_vote_inlier_m, cell = options.heading_vote_cell_m;
-  // Support of T: b objects landing within thr of a compatible a object.
-  const auto support = [&](const Pose2& T) {
-    int n = 0;
-    for (const auto& ob : b.objects) {
-      const Point2 q = Transform(T, ob.center);
-      for (const auto& oa : a.objects) {
-        if (Distance(oa.center, q) < thr && compatible(oa, ob)) {
-          ++n;
-          break;
-        }
-      }
-    }
-    return n;
-  };
+  const auto support = [&](const Pose2& T) { return VoteSupport(a, b, T, options); };
   struct Peak {
     Pose2 T;
     int support = 0;
@@ -654,6 +680,9 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
       const Pose2 T{t.x_m, t.y_m, yaw};
       peaks.push_back({T, support(T)});
     }
+  }
+  if (scored) {
+    for (const auto& p : peaks) scored->T.push_back(p.T), scored->support.push_back(p.support);
   }
   if (peaks.empty()) {
     match.status = MatchStatus::kTooFewInliers;
@@ -793,11 +822,30 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
                                   const Coverage* coverage_b) {
   msgs::ObjectMatch m = MatchWithoutVotes(a, b, options, coverage_a, coverage_b);
   const auto prior = HeadingYawPrior(a, b);
-  if (m.status == MatchStatus::kMatched || !prior || !options.heading_votes ||
-      !(options.max_heading_gap_rad > 0.0))
-    return m;
-  msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options);
-  return votes.status == MatchStatus::kMatched ? votes : m;
+  if (!prior || !options.heading_votes || !(options.max_heading_gap_rad > 0.0)) return m;
+  if (m.status != MatchStatus::kMatched) {
+    msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options);
+    return votes.status == MatchStatus::kMatched ? votes : m;
+  }
+  if (!options.votes_cross_check) return m;
+  VotePeaks peaks;
+  msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options, &peaks);
+  if (peaks.support.empty()) return m;  // too few objects or no compatible pairs: no evidence
+  // The answer's support against the best distinct translation's, beyond a two-point sample.
+  const int answer_support = VoteSupport(a, b, m.T_a_b, options);
+  int rival = 0;
+  for (std::size_t p = 0; p < peaks.support.size(); ++p) {
+    if (peaks.support[p] > rival && Distinct(b, peaks.T[p], m.T_a_b, options.distinct_m))
+      rival = peaks.support[p];
+  }
+  const double ambiguity = std::max(0, rival - 2) / std::max(1e-9, double(answer_support - 2));
+  if (rival < answer_support && ambiguity < options.cross_check_max_ambiguity) return m;
+  if (votes.status == MatchStatus::kMatched &&
+      VoteSupport(a, b, votes.T_a_b, options) > answer_support)
+    return votes;
+  m.status = MatchStatus::kAmbiguous;
+  m.ambiguity = ambiguity;
+  return m;
 }
 
 namespace {

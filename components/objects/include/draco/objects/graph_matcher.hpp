@@ -101,6 +101,16 @@ struct MatcherOptions {
   double heading_vote_inlier_m = 1.5;
   int heading_vote_min_inliers = 8;
   double max_vote_ambiguity = 0.5;
+  // With both headings known, an answer of the paths above (spectral assignment, structure
+  // lines, landmarks) is checked against the translation votes: RANSAC over a one-to-one
+  // assignment sees one shift of a periodic grid only, the votes see every shift. Support is
+  // counted as the votes count it (b objects within heading_vote_inlier_m of an a object of
+  // similar shape). The answer stands when the best translation distinct from it (distinct_m)
+  // has less support and, beyond a two-point sample, below cross_check_max_ambiguity of the
+  // answer's (1: any margin). Otherwise the votes' answer replaces it when they have one
+  // (enough support, no close runner-up) supported better than the answer; else kAmbiguous.
+  bool votes_cross_check = false;
+  double cross_check_max_ambiguity = 1.0;
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
   // Verification (with miss_weight or the ambiguity test): hypotheses from pairs of each a
