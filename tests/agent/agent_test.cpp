@@ -643,6 +643,39 @@ TEST(ObjectMapperStage, PublishesAtMostEveryPeriodWhenChanged) {
   EXPECT_LE(stage.version(), 100u);  // changes only while keyframes came
 }
 
+// map_heading_from_keyframes: the AHRS heading of each keyframe (the odom frame's heading plus
+// the dead-reckoned yaw) minus the local SLAM's yaw, averaged on the circle. The local SLAM
+// turned the map by -0.04 rad against the odom frame (+-0.01 rad from keyframe to keyframe):
+// the map's heading is the odom heading + 0.04. Off: the odom frame's heading, the first AHRS
+// reading.
+TEST(ObjectMapperStage, MapHeadingIsTheMeanOfAhrsMinusSlamYaw) {
+  const auto world = World(7);
+  const RobotData r = MakeRobot(kA, world, Lawnmower({10.0, 40.0}, true), {}, 1);
+  for (const bool mean : {false, true}) {
+    ObjectMapperStageOptions o;
+    o.robot_id = kA;
+    o.object_map_period_s = 1.0;
+    o.map_heading_from_keyframes = mean;
+    ObjectMapperStage stage(o);
+    msgs::KeyframeTrajectory traj;
+    const double heading = 3.1;  // near +-pi: the mean must wrap
+    for (std::size_t k = 0; k < 40 && k < r.keyframes.size(); ++k) {
+      msgs::Keyframe kf = r.keyframes[k];
+      kf.odom_heading_rad = heading;
+      stage.OnKeyframe(kf);
+      Pose2 T = kf.T_odom_body;
+      T.yaw_rad -= 0.04 + (k % 2 == 0 ? 0.01 : -0.01);
+      traj.keyframes.push_back({static_cast<int>(k), kf.time_s, T});
+    }
+    stage.OnTrajectory(traj);
+    const auto out = stage.Step(100.0, nullptr);
+    ASSERT_TRUE(out.has_object_map);
+    const double want = mean ? std::remainder(heading + 0.04, 2.0 * M_PI) : heading;
+    EXPECT_NEAR(std::remainder(out.object_map.map_heading_rad - want, 2.0 * M_PI), 0.0, 1e-9)
+        << mean;
+  }
+}
+
 TEST(ObjectMapperStage, AppendsTheLocalSlamLandmarksSeenOften) {
   const auto world = World(7);
   const RobotData r = MakeRobot(kA, world, Lawnmower({10.0, 40.0}, true), {}, 1);
@@ -790,6 +823,43 @@ struct TeammateOne {
     return l;
   }
 };
+
+// placement_heading_weight: loops place teammate 1 at T_0_1 (yaw 0.3); the maps' absolute
+// headings say the rotation is 0.4. Half way: yaw 0.35, turned about the centroid of the
+// teammate keyframes the loops name, which stays where the loops put it.
+TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
+  for (const double weight : {0.0, 0.5}) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.placement_heading_weight = weight;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    const TeammateOne mate(&stage);
+    msgs::ObjectMap own_map, mate_map;
+    own_map.map_heading_rad = 1.0;
+    mate_map.map_heading_rad = 1.4;
+    stage.OnOwnObjectMap(own_map);
+    msgs::FleetHeader header;
+    header.robot_id = 1;
+    header.incarnation = 1;
+    stage.OnTeammateObjectMap(header, mate_map);
+    std::vector<msgs::InterRobotLoop> loops;
+    const std::vector<std::pair<int, int>> pairs{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+    const Pose2 T = stage.estimate().T_own_teammate.at(1);
+    EXPECT_NEAR(T.yaw_rad, mate.T_0_1.yaw_rad + weight * 0.1, 1e-4) << weight;
+    // The loops' teammate keyframes 2, 4, 6, 4, 6: centroid (0, 8.8) in the teammate's map.
+    const Pose2 centroid{0.0, 8.8, 0.0};
+    const Pose2 a = reg::Compose(T, centroid), b = reg::Compose(mate.T_0_1, centroid);
+    EXPECT_NEAR(a.x_m, b.x_m, 1e-3) << weight;
+    EXPECT_NEAR(a.y_m, b.y_m, 1e-3) << weight;
+  }
+}
 
 TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   // Robot 1 at T_0_1. Seven true loops that all name one teammate keyframe (one scan

@@ -52,7 +52,18 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
     seen_version_ = own_.version();
   }
   objects_.robot_id = options_.robot_id;
-  objects_.map_heading_rad = map_heading_rad_;
+  objects_.map_heading_rad = odom_heading_rad_;
+  if (options_.map_heading_from_keyframes && std::isfinite(odom_heading_rad_)) {
+    double sum_sin = 0.0, sum_cos = 0.0;
+    for (const auto& [index, kf] : own_.entries()) {
+      const auto ahrs = ahrs_heading_rad_.find(index);
+      if (!kf.has_pose || ahrs == ahrs_heading_rad_.end()) continue;
+      const double h = ahrs->second - kf.T_map_kf.yaw_rad;
+      sum_sin += std::sin(h);
+      sum_cos += std::cos(h);
+    }
+    if (sum_sin != 0.0 || sum_cos != 0.0) objects_.map_heading_rad = std::atan2(sum_sin, sum_cos);
+  }
   if (now_s - last_publish_s_ >= options_.object_map_period_s && !objects_.objects.empty()) {
     bool same = published_once_ && last_published_.objects.size() == objects_.objects.size();
     for (std::size_t i = 0; same && i < objects_.objects.size(); ++i) {

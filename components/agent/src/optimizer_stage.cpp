@@ -152,6 +152,45 @@ const OptimizerStage::OwnView& OptimizerStage::UpdateOwnView() {
   return own_view_;
 }
 
+void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& problem,
+                                        std::vector<Pose2>* poses) const {
+  const auto map = teammate_objects_.find(robot);
+  const auto* held = poses_.Find(robot);
+  if (map == teammate_objects_.end() || held == nullptr) return;
+  const auto prior = objects::HeadingYawPrior(own_objects_, map->second.map);
+  if (!prior) return;
+  std::vector<Pose2> local, moved;
+  for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {
+    if (!held->known[k]) continue;
+    local.push_back(held->keyframes[k].T_map_kf);
+    moved.push_back((*poses)[k]);
+  }
+  const auto T = AlignSe2(local, moved);
+  if (!T) return;
+  // The centroid of the teammate's keyframes that loops tie to own ones, where it is placed.
+  double cx = 0.0, cy = 0.0;
+  int n = 0;
+  for (const auto& l : problem.loops) {
+    if (l.teammate_robot != robot || l.teammate_keyframe < 0 ||
+        l.teammate_keyframe >= static_cast<int>(poses->size()))
+      continue;
+    cx += (*poses)[static_cast<std::size_t>(l.teammate_keyframe)].x_m;
+    cy += (*poses)[static_cast<std::size_t>(l.teammate_keyframe)].y_m;
+    ++n;
+  }
+  if (n == 0) return;
+  cx /= n;
+  cy /= n;
+  const double turn =
+      options_.placement_heading_weight * std::remainder(*prior - T->yaw_rad, 2.0 * M_PI);
+  const double c = std::cos(turn), sn = std::sin(turn);
+  for (auto& p : *poses) {
+    const double dx = p.x_m - cx, dy = p.y_m - cy;
+    p = {cx + c * dx - sn * dy, cy + sn * dx + c * dy,
+         std::remainder(p.yaw_rad + turn, 2.0 * M_PI)};
+  }
+}
+
 std::optional<MapCheck> OptimizerStage::CheckMaps(
     int robot, const std::vector<msgs::InterRobotLoop>& candidates, const OwnView& own_view) const {
   const auto map = teammate_objects_.find(robot);
@@ -402,6 +441,11 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     }
     for (auto it = placed.begin(); it != placed.end();) {
       it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
+    }
+  }
+  if (solved && options_.placement_heading_weight > 0.0) {
+    for (auto& [robot, poses] : placed) {
+      if (robot != own_id) TurnTowardHeadings(robot, problem, &poses);
     }
   }
   TeamEstimate next;

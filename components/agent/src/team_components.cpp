@@ -130,6 +130,9 @@ class ObjectMapperComponent final : public graph::Component {
     RobotIdParam(spec, &o_.robot_id);
     spec.Param("object_map_period_s", &o_.object_map_period_s,
                {.doc = "own object map sent at most this often", .unit = "s", .min = 0.0});
+    spec.Param("map_heading_from_keyframes", &o_.map_heading_from_keyframes,
+               {.doc = "the map's absolute heading as the circular mean over keyframes of the "
+                       "AHRS heading minus the local SLAM yaw (false: the first AHRS reading)"});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
@@ -607,6 +610,12 @@ class TwoStepOptimizerComponent final : public graph::Component {
     spec.Param("place_chained_teammates", &o_.place_chained_teammates,
                {.doc = "place a teammate without own verified loops through a teammate's "
                        "shared estimate"});
+    spec.Param("placement_heading_weight", &o_.placement_heading_weight,
+               {.doc = "turn a placed teammate about its loops' centroid by this fraction of "
+                       "the gap between its placement's rotation and the headings' difference "
+                       "(0: off)",
+                .min = 0.0,
+                .max = 1.0});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

@@ -27,6 +27,7 @@
 // bounded (max_teammate_keyframes poses, max_teammate_scans scans, queued requests, loops).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -124,6 +125,11 @@ struct ObjectMapperStageOptions {
   int robot_id = 0;
   objects::ObjectMapperOptions mapper;
   double object_map_period_s = 10.0;  // own object map published at most this often
+  // The map frame's absolute heading (msgs::ObjectMap::map_heading_rad) as the circular mean
+  // over the keyframes of the AHRS heading minus the local SLAM's yaw, instead of the first
+  // AHRS reading alone: the AHRS error (a Gauss-Markov process of a few degrees) averages out
+  // over the mission, and the heading follows the local SLAM's frame. false: the first reading.
+  bool map_heading_from_keyframes = false;
 };
 
 class ObjectMapperStage {
@@ -138,7 +144,9 @@ class ObjectMapperStage {
   ~ObjectMapperStage();
   void OnKeyframe(const msgs::Keyframe& keyframe) {
     own_.OnKeyframe(keyframe);
-    map_heading_rad_ = keyframe.odom_heading_rad;  // the map frame is the odom frame
+    odom_heading_rad_ = keyframe.odom_heading_rad;  // the map frame starts as the odom frame
+    if (std::isfinite(keyframe.odom_heading_rad))
+      ahrs_heading_rad_[keyframe.index] = keyframe.odom_heading_rad + keyframe.T_odom_body.yaw_rad;
   }
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
   Output Step(double now_s, msgs::TeamStepStats* stats);
@@ -154,7 +162,8 @@ class ObjectMapperStage {
   std::uint64_t seen_poses_version_ = 0;
   std::uint64_t version_ = 0;
   msgs::ObjectMap clusters_;  // the mapper's objects, before the landmarks are appended
-  double map_heading_rad_ = msgs::kUnknownHeading;
+  double odom_heading_rad_ = msgs::kUnknownHeading;
+  std::map<int, double> ahrs_heading_rad_;  // keyframe -> absolute AHRS heading
   std::uint64_t seen_landmarks_version_ = 0;
   msgs::ObjectMap objects_;
   msgs::ObjectMap last_published_;
@@ -431,6 +440,13 @@ struct OptimizerStageOptions {
   // imply a rotation more than this from the headings' difference is not placed (a grid
   // turned 180 deg), nor placed through a teammate's chain. <= 0: off.
   double max_heading_gap_rad = 0.5236;  // 30 deg
+  // The placed teammate is turned about the centroid of its keyframes in accepted loops by
+  // this fraction of the gap between the rotation its placement has and the headings'
+  // difference (0: off). Loops fix the placement where the paths meet, but their rotation is
+  // that of the two maps there, which bend by a few degrees against their whole-mission frames;
+  // the headings (map_heading_from_keyframes) measure the whole-mission rotation, with the
+  // AHRS's errors.
+  double placement_heading_weight = 0.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
@@ -491,6 +507,9 @@ class OptimizerStage {
     objects::PointCounts points;
   };
   const OwnView& UpdateOwnView();
+  // Turns a placed teammate toward the headings' rotation (placement_heading_weight).
+  void TurnTowardHeadings(int robot, const team::TeamProblem& problem,
+                          std::vector<msgs::Pose2>* poses) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
                                     const OwnView& own_view) const;
 
