@@ -1,0 +1,87 @@
+// Negative evidence for the object-graph matcher (graph_matcher.hpp): the area a robot's sonar
+// has seen (Coverage) and the objects a transform puts there that the map lacks (CountMisses).
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "draco/objects/geometry.hpp"
+#include "draco/objects/graph_matcher.hpp"
+#include "graph_matcher_internal.hpp"
+
+namespace draco::objects {
+namespace {
+
+using detail::Distance;
+using msgs::ObjectMap;
+
+}  // namespace
+
+Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
+  if (poses.empty()) return;
+  cell_m_ = o.cell_m;
+  double x0 = poses[0].x_m, x1 = x0, y0 = poses[0].y_m, y1 = y0;
+  for (const auto& p : poses) {
+    x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
+    y0 = std::min(y0, p.y_m), y1 = std::max(y1, p.y_m);
+  }
+  x0_ = x0 - o.range_m;
+  y0_ = y0 - o.range_m;
+  nx_ = static_cast<int>(std::ceil((x1 - x0 + 2 * o.range_m) / cell_m_)) + 1;
+  ny_ = static_cast<int>(std::ceil((y1 - y0 + 2 * o.range_m) / cell_m_)) + 1;
+  cells_.assign(std::size_t(nx_) * ny_, 0);
+  const int r = static_cast<int>(std::ceil(o.range_m / cell_m_));
+  const double cos_half = std::cos(std::min(o.half_aperture_rad, M_PI));
+  for (const auto& p : poses) {
+    const double hx = std::cos(p.yaw_rad), hy = std::sin(p.yaw_rad);
+    const int cx = static_cast<int>((p.x_m - x0_) / cell_m_);
+    const int cy = static_cast<int>((p.y_m - y0_) / cell_m_);
+    for (int iy = std::max(0, cy - r); iy <= std::min(ny_ - 1, cy + r); ++iy) {
+      for (int ix = std::max(0, cx - r); ix <= std::min(nx_ - 1, cx + r); ++ix) {
+        std::uint8_t& cell = cells_[std::size_t(iy) * nx_ + ix];
+        if (cell) continue;
+        const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
+        const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
+        const double d2 = dx * dx + dy * dy;
+        if (d2 > o.range_m * o.range_m) continue;
+        // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
+        if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
+        cell = 1;
+      }
+    }
+  }
+}
+
+bool Coverage::Observed(const Point2& p) const {
+  if (cells_.empty()) return false;
+  const double fx = (p.x_m - x0_) / cell_m_, fy = (p.y_m - y0_) / cell_m_;
+  if (fx < 0 || fy < 0 || fx >= nx_ || fy >= ny_) return false;
+  return cells_[std::size_t(fy) * nx_ + std::size_t(fx)] != 0;
+}
+
+double Coverage::ObservedFraction() const {
+  if (cells_.empty()) return 0.0;
+  std::size_t n = 0;
+  for (const auto c : cells_) n += c;
+  return double(n) / double(cells_.size());
+}
+
+int CountMisses(const ObjectMap& from, const ObjectMap& to, const Pose2& T_to_from,
+                const Coverage& to_coverage, double distance_m) {
+  int misses = 0;
+  for (const auto& o : from.objects) {
+    const Point2 q = Transform(T_to_from, o.center);
+    if (!to_coverage.Observed(q)) continue;
+    bool near = false;
+    for (const auto& t : to.objects) {
+      if (Distance(t.center, q) < distance_m) {
+        near = true;
+        break;
+      }
+    }
+    misses += !near;
+  }
+  return misses;
+}
+
+}  // namespace draco::objects

@@ -1,0 +1,67 @@
+// Pieces the object-graph matcher's files share (graph_matcher.hpp), private to
+// draco_objects: the centre distance and shape term of the affinity, and the two matchers
+// MatchObjectMaps chooses between (spectral_match.cpp, heading_votes.cpp).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "draco/objects/geometry.hpp"
+#include "draco/objects/graph_matcher.hpp"
+
+namespace draco::objects::detail {
+
+inline double Distance(const Point2& p, const Point2& q) {
+  const double dx = p.x_m - q.x_m, dy = p.y_m - q.y_m;
+  return std::sqrt(dx * dx + dy * dy);  // not hypot: no overflow here, and 5x faster
+}
+
+// Shape term of one vertex pair: the code's s(i,k) = exp(-2 (|dl| + |db|)); the paper's
+// exp(-(|dl| + |db|)); kRelative: the code's with the difference divided by
+// 1 + relative_shape_per_m * max(l_i, l_k) (partial views of large objects differ more).
+inline double Shape(const msgs::Object& p, const msgs::Object& q, const MatcherOptions& o) {
+  const double d = std::abs(p.length_m - q.length_m) + std::abs(p.breadth_m - q.breadth_m);
+  switch (o.affinity) {
+    case AffinityForm::kPaper:
+      return std::exp(-d);
+    case AffinityForm::kRelative:
+      return std::exp(-2.0 * d / (1.0 + o.relative_shape_per_m * std::max(p.length_m, q.length_m)));
+    case AffinityForm::kCode:
+      break;
+  }
+  return std::exp(-2.0 * d);
+}
+
+// The spectral matcher (spectral_match.cpp): spectral relaxation of the QAP, linear
+// assignment, RANSAC, verification over all objects, re-matching in the aligned frame.
+msgs::ObjectMatch MatchSpectral(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                const MatcherOptions& options, const Coverage* coverage_a,
+                                const Coverage* coverage_b);
+
+// Every hypothesis the translation votes scored (the densest blocks at each rotation), for
+// the cross-check of another path's answer (MatcherOptions::votes_cross_check).
+struct VotePeaks {
+  std::vector<Pose2> T;
+  std::vector<int> support;
+};
+
+// Translation votes under a known rotation (heading_votes.cpp); scored, when given, receives
+// every hypothesis they scored.
+msgs::ObjectMatch MatchByHeadingVotes(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                      double yaw_prior, const MatcherOptions& options,
+                                      VotePeaks* scored = nullptr);
+
+// Objects the votes may pair: both landmarks, or both clusters of similar shape.
+bool VoteCompatible(const msgs::Object& p, const msgs::Object& q, const MatcherOptions& options);
+
+// Support of T_a_b as the votes count it: b objects landing within heading_vote_inlier_m of a
+// compatible a object.
+int VoteSupport(const msgs::ObjectMap& a, const msgs::ObjectMap& b, const Pose2& T,
+                const MatcherOptions& options);
+
+// Two transforms are distinct when they move b's objects apart by more than distinct_m on
+// average.
+bool Distinct(const msgs::ObjectMap& b, const Pose2& x, const Pose2& y, double distinct_m);
+
+}  // namespace draco::objects::detail
