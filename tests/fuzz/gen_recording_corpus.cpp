@@ -4,7 +4,8 @@
 // --robots 1 --no-pictures --out MISSION_DIR`), keeps its first 0.5 s of navigation and its
 // first three pings, thinned to every 16th beam and every 8th range bin (32 x 64: small seeds,
 // real speckle), and writes that mission with the recording writer once per image encoding
-// (zlib, PNG, raw). Each seed is "0" + mission.yaml + "%%<file>" sections (fuzz_recording.cpp).
+// (zstd, zlib, PNG, raw). Each seed is "0" + mission.yaml + "%%<file>" sections
+// (fuzz_recording.cpp).
 //
 //   gen_recording_corpus MISSION_DIR OUT_DIR
 #include <cstdio>
@@ -79,7 +80,8 @@ int main(int argc, char** argv) {
   const struct {
     const char* name;
     recording::ImageCompression compression;
-  } kEncodings[] = {{"zlib", recording::ImageCompression::kZlib},
+  } kEncodings[] = {{"zstd", recording::ImageCompression::kZstd},
+                    {"zlib", recording::ImageCompression::kZlib},
                     {"png", recording::ImageCompression::kPng},
                     {"raw", recording::ImageCompression::kRaw}};
   const fs::path scratch = out_dir / ".scratch";

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 #include <zlib.h>
+#include <zstd.h>
 
 #include <cmath>
 #include <cstring>
@@ -315,8 +316,8 @@ TEST_F(RecordingTest, RobotStreamsRoundTripInTimeOrder) {
 TEST_F(RecordingTest, EveryImageEncodingRoundTrips) {
   MissionInfo info = TwoRobotMission();
   info.robots.resize(1);
-  for (ImageCompression compression :
-       {ImageCompression::kRaw, ImageCompression::kPng, ImageCompression::kZlib}) {
+  for (ImageCompression compression : {ImageCompression::kRaw, ImageCompression::kPng,
+                                       ImageCompression::kZlib, ImageCompression::kZstd}) {
     SCOPED_TRACE(static_cast<int>(compression));
     WriterOptions options;
     options.compression = compression;
@@ -339,6 +340,79 @@ TEST_F(RecordingTest, EveryImageEncodingRoundTrips) {
       EXPECT_LT(size, fixed + 48 * 64);
     }
   }
+}
+
+// The byte of the first ping record that holds its image encoding.
+int FirstPingEncoding(const fs::path& sonar_file) {
+  const std::string bytes = ReadFile(sonar_file);
+  return static_cast<std::uint8_t>(bytes.at(16 + 12 + 37));
+}
+
+TEST_F(RecordingTest, ZstdIsTheDefaultAndEveryLevelRoundTripsBitExact) {
+  EXPECT_EQ(WriterOptions{}.compression, ImageCompression::kZstd);
+  MissionInfo info = TwoRobotMission();
+  info.robots.resize(1);
+  for (int level : {-5, -1, 0, 1, 3, 19}) {
+    SCOPED_TRACE(level);
+    WriterOptions options;
+    options.compression_level = level;
+    MissionWriter mission = MissionWriter::Create(dir_, info, options);
+    RobotWriter alpha = mission.OpenRobot("alpha");
+    std::mt19937 rng(5);
+    std::vector<msgs::SonarPing> pings;
+    for (int i = 0; i < 3; ++i) {
+      pings.push_back(MakePing(0.2 * i, i, 512, 256 + 64 * i, rng));
+      alpha.WritePing(pings.back());
+    }
+    alpha.Close();
+    mission.Close();
+    EXPECT_EQ(FirstPingEncoding(Alpha("sonar.drs")), 3);
+    const auto records = ReadAll(dir_, "alpha");
+    ASSERT_EQ(records.size(), pings.size());
+    for (std::size_t i = 0; i < pings.size(); ++i) {
+      const auto& read = std::get<msgs::SonarPing>(records[i]);
+      EXPECT_EQ(read.num_ranges, pings[i].num_ranges);
+      EXPECT_EQ(read.num_beams, pings[i].num_beams);
+      EXPECT_TRUE(read.intensity == pings[i].intensity) << "ping " << i;
+    }
+  }
+}
+
+TEST_F(RecordingTest, NearConstantZstdPingIsStoredAsZlibWithinTheFormatsExpansionBound) {
+  // 512 x 512 zeros make a zstd frame of a few dozen bytes, beyond the 1032:1 the format allows
+  // a compressed image: the writer stores that ping with encoding 2, the others with 3.
+  MissionInfo info = TwoRobotMission();
+  info.robots.resize(1);
+  MissionWriter mission = MissionWriter::Create(dir_, info);
+  RobotWriter alpha = mission.OpenRobot("alpha");
+  std::mt19937 rng(2);
+  msgs::SonarPing blank = MakePing(0.0, 0, 512, 512, rng);
+  std::fill(blank.intensity.begin(), blank.intensity.end(), 0);
+  const msgs::SonarPing speckle = MakePing(0.2, 1, 512, 512, rng);
+  alpha.WritePing(blank);
+  alpha.WritePing(speckle);
+  alpha.Close();
+  mission.Close();
+  const std::string bytes = ReadFile(Alpha("sonar.drs"));
+  const std::vector<std::size_t> records = RecordOffsets(bytes);
+  ASSERT_EQ(records.size(), 3u);  // two pings and the end record
+  EXPECT_EQ(bytes[records[0] + 12 + 37], 2);
+  EXPECT_EQ(bytes[records[1] + 12 + 37], 3);
+  const auto read = ReadAll(dir_, "alpha");
+  ASSERT_EQ(read.size(), 2u);
+  EXPECT_TRUE(std::get<msgs::SonarPing>(read[0]).intensity == blank.intensity);
+  EXPECT_TRUE(std::get<msgs::SonarPing>(read[1]).intensity == speckle.intensity);
+}
+
+TEST_F(RecordingTest, WriterRefusesCompressionLevelsOutsideTheCodecsRange) {
+  MissionInfo info = TwoRobotMission();
+  for (const WriterOptions& options :
+       {WriterOptions{ImageCompression::kZlib, 0}, WriterOptions{ImageCompression::kPng, 10},
+        WriterOptions{ImageCompression::kZstd, 23},
+        WriterOptions{static_cast<ImageCompression>(4), 1}}) {
+    EXPECT_THROW(MissionWriter::Create(dir_, info, options), std::invalid_argument);
+  }
+  EXPECT_NO_THROW(MissionWriter::Create(dir_, info, {ImageCompression::kRaw, 0}));
 }
 
 TEST_F(RecordingTest, EqualTimesComeOutInFixedStreamOrder) {
@@ -722,7 +796,8 @@ TEST_F(DamagedMissionTest, SonarRecordLongerThanTheFileIsRefusedBeforeAllocating
 }
 
 TEST_F(DamagedMissionTest, SonarImageLargerThanItsCompressedBytesCanHoldIsRefused) {
-  // 60000 x 64 pixels claimed for a zlib image of a few kB (deflate expands at most 1032:1).
+  // 60000 x 64 pixels claimed for a compressed image of a few kB (deflate expands at most
+  // 1032:1, and the format holds zstd images to the same bound).
   std::string bytes = ReadFile(Alpha("sonar.drs"));
   const std::size_t at = RecordOffsets(bytes)[0];
   SetU32(bytes, at + 12 + 12, 60000);
@@ -757,13 +832,115 @@ TEST_F(DamagedMissionTest, SonarPngHeaderMustAnnounceThePingSize) {
                             "expected 47 x 64 8-bit grey"});
 }
 
+// zstd images (encoding 3): DamagedMissionTest writes with the default, zstd level 1.
+class DamagedZstdImageTest : public DamagedMissionTest {
+ protected:
+  void SetUp() override {
+    DamagedMissionTest::SetUp();
+    bytes_ = ReadFile(Alpha("sonar.drs"));
+    at_ = RecordOffsets(bytes_)[0];
+    ASSERT_EQ(bytes_[at_ + 12 + 37], 3);
+    size_at_ = at_ + 12 + 40 + 64 * 4;  // the first ping carries its bearing table
+    image_at_ = size_at_ + 4;
+  }
+
+  // Replaces the first ping's image by image (the record's lengths and CRC follow).
+  void SetImage(const std::string& image) {
+    const std::uint32_t old_size = GetU32(bytes_, size_at_);
+    bytes_.replace(image_at_, old_size, image);
+    SetU32(bytes_, size_at_, static_cast<std::uint32_t>(image.size()));
+    SetU32(bytes_, at_ + 8,
+           GetU32(bytes_, at_ + 8) - old_size + static_cast<std::uint32_t>(image.size()));
+    FixCrc(bytes_, at_);
+    WriteFileBytes(Alpha("sonar.drs"), bytes_);
+  }
+  std::string Image() const { return bytes_.substr(image_at_, GetU32(bytes_, size_at_)); }
+
+  std::string bytes_;
+  std::size_t at_ = 0, size_at_ = 0, image_at_ = 0;
+};
+
+TEST_F(DamagedZstdImageTest, TruncatedFrame) {
+  const std::string image = Image();
+  SetImage(image.substr(0, image.size() - 10));
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "zstd frame is truncated or corrupt"});
+}
+
+TEST_F(DamagedZstdImageTest, CorruptBlockHeader) {
+  // The frame header of a 3072-byte image is 7 bytes (magic, descriptor, 2-byte content size);
+  // the first block header follows: block type 3 is reserved.
+  std::string image = Image();
+  image[7] = static_cast<char>(image[7] | 0x06);
+  SetImage(image);
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "zstd frame is truncated or corrupt"});
+}
+
+TEST_F(DamagedZstdImageTest, FrameDecodesToFewerBytesThanItStates) {
+  // A well-formed frame stating 3072 bytes whose one (raw) block holds 3000. zstd has no way
+  // to see other damage inside a block without its checksum: the record's CRC-32 covers that.
+  std::string frame = "\x28\xb5\x2f\xfd";        // magic
+  frame += '\x60';                               // single segment, 2-byte content size
+  frame += std::string("\x00\x0b", 2);           // 3072 - 256
+  const std::uint32_t block = 1 | (3000u << 3);  // last block, raw, 3000 bytes
+  for (int i = 0; i < 3; ++i) frame += static_cast<char>(block >> (8 * i));
+  frame += std::string(3000, 'x');
+  SetImage(frame);
+  ExpectError(ReadError(),
+              {"alpha/sonar.drs", "record 0", "zstd frame does not decompress to 48 x 64 = 3072"});
+}
+
+TEST_F(DamagedZstdImageTest, NotAFrame) {
+  std::string image = Image();
+  image.replace(0, 4, "NOPE");
+  SetImage(image);
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "zstd image is not a zstd frame"});
+}
+
+TEST_F(DamagedZstdImageTest, BytesAfterTheFrame) {
+  SetImage(Image() + "tail");
+  ExpectError(ReadError(),
+              {"alpha/sonar.drs", "record 0", "zstd image has 4 bytes after its frame"});
+}
+
+TEST_F(DamagedZstdImageTest, ContentSizeIsNotThePingsSize) {
+  // The record says 47 range bins, the frame holds 48 x 64 bytes.
+  SetU32(bytes_, at_ + 12 + 12, 47);
+  FixCrc(bytes_, at_);
+  WriteFileBytes(Alpha("sonar.drs"), bytes_);
+  const test_support::LargestAllocation largest;
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0",
+                            "zstd frame holds 3072 bytes, expected 47 x 64 = 3008"});
+  if (test_support::LargestAllocation::Supported()) {
+    EXPECT_LT(largest.bytes(), 1u << 20);
+  }
+}
+
+TEST_F(DamagedZstdImageTest, FrameWithoutContentSize) {
+  // A frame of the same bytes whose header leaves the content size out.
+  const std::string raw(48 * 64, 'x');
+  std::string frame(ZSTD_compressBound(raw.size()), '\0');
+  ZSTD_CCtx* context = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(context, ZSTD_c_contentSizeFlag, 0);
+  ZSTD_CCtx_setParameter(context, ZSTD_c_compressionLevel, -1);
+  ZSTD_inBuffer in{raw.data(), raw.size(), 0};
+  ZSTD_outBuffer out{frame.data(), frame.size(), 0};
+  ASSERT_EQ(ZSTD_compressStream2(context, &out, &in, ZSTD_e_end), 0u);
+  ZSTD_freeCCtx(context);
+  frame.resize(out.pos);
+  SetImage(frame);
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0",
+                            "zstd frame header does not state its content size (expected 48 x "
+                            "64 = 3072 bytes)"});
+}
+
 TEST_F(DamagedMissionTest, SonarUnknownImageEncoding) {
   std::string bytes = ReadFile(Alpha("sonar.drs"));
   const std::size_t at = RecordOffsets(bytes)[0];
   bytes[at + 12 + 37] = 5;
   FixCrc(bytes, at);
   WriteFileBytes(Alpha("sonar.drs"), bytes);
-  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "unknown image encoding 5"});
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "unknown image encoding 5",
+                            "expected 0 (raw), 1 (PNG), 2 (zlib) or 3 (zstd)"});
 }
 
 TEST_F(DamagedMissionTest, CsvBadHeader) {

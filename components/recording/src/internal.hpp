@@ -44,7 +44,9 @@ inline constexpr std::uint32_t kMaxPayloadBytes = 256u << 20;
 inline constexpr std::uint32_t kMaxImageSide = 1u << 16;
 inline constexpr std::uint64_t kMaxImageCells = 64ull << 20;
 // Deflate's largest expansion (zlib's "maximum compression factor 1032:1"): a compressed image
-// of n bytes holds at most 1032 n pixels.
+// of n bytes holds at most 1032 n pixels. zstd can expand further (about 32768:1); the format
+// holds zstd images to the same bound, and the writer stores a ping whose zstd frame would be
+// smaller with encoding 2 instead (docs/recording-format.md section 4).
 inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
 
 std::uint32_t Crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc = 0);
@@ -86,9 +88,27 @@ class AtomicFile {
   std::vector<char> buffer_;
 };
 
-// Encodes one ping record (header, payload, CRC) into out.
-void EncodePingRecord(const msgs::SonarPing& ping, bool include_bearings,
-                      const WriterOptions& options, std::vector<std::uint8_t>& out);
+// Encodes ping records; holds the compression state reused from ping to ping (a zstd
+// context). One per RobotWriter; not thread-safe.
+class PingEncoder {
+ public:
+  explicit PingEncoder(const WriterOptions& options);
+  ~PingEncoder();
+  PingEncoder(const PingEncoder&) = delete;
+  PingEncoder& operator=(const PingEncoder&) = delete;
+
+  // Appends one ping record (header, payload, CRC) to out.
+  void EncodePingRecord(const msgs::SonarPing& ping, bool include_bearings,
+                        std::vector<std::uint8_t>& out);
+
+ private:
+  struct Zstd;
+  WriterOptions options_;
+  std::unique_ptr<Zstd> zstd_;
+};
+
+// "" when options are valid, else a description of the first problem.
+std::string ValidateWriterOptions(const WriterOptions& options);
 void EncodeEndRecord(std::uint64_t ping_count, std::vector<std::uint8_t>& out);
 void EncodeSonarFileHeader(std::vector<std::uint8_t>& out);
 

@@ -44,7 +44,7 @@ std::vector<fs::path> RobotFiles(const fs::path& robot_dir, bool ground_truth) {
 
 struct RobotWriter::Impl {
   RobotInfo robot;
-  WriterOptions options;
+  std::unique_ptr<internal::PingEncoder> encoder;
   std::unique_ptr<AtomicFile> sonar, dvl, ahrs, depth, ground_truth;
   std::vector<float> last_bearings;
   std::vector<std::uint8_t> record;
@@ -98,7 +98,7 @@ void RobotWriter::WritePing(const msgs::SonarPing& ping) {
   CheckFinite({ping.vertical_aperture_rad}, "WritePing");
   const bool include_bearings = ping.bearings_rad != d.last_bearings;
   d.record.clear();
-  internal::EncodePingRecord(ping, include_bearings, d.options, d.record);
+  d.encoder->EncodePingRecord(ping, include_bearings, d.record);
   d.sonar->Write(d.record.data(), d.record.size());
   if (include_bearings) d.last_bearings = ping.bearings_rad;
   ++d.pings;
@@ -200,8 +200,8 @@ MissionWriter MissionWriter::Create(const fs::path& mission_dir, const MissionIn
                                     const WriterOptions& options) {
   const std::string problem = internal::ValidateMissionInfo(info);
   if (!problem.empty()) throw std::invalid_argument("MissionInfo: " + problem);
-  if (options.compression_level < 1 || options.compression_level > 9) {
-    throw std::invalid_argument("WriterOptions: compression_level must be in 1..9");
+  if (const std::string bad = internal::ValidateWriterOptions(options); !bad.empty()) {
+    throw std::invalid_argument("WriterOptions: " + bad);
   }
 
   std::error_code error;
@@ -258,7 +258,7 @@ RobotWriter MissionWriter::OpenRobot(const std::string& robot_name) {
 
   auto impl = std::make_unique<RobotWriter::Impl>();
   impl->robot = *robot;
-  impl->options = d.options;
+  impl->encoder = std::make_unique<internal::PingEncoder>(d.options);
   impl->sonar = std::make_unique<AtomicFile>(robot_dir / internal::kSonarFile);
   impl->dvl = std::make_unique<AtomicFile>(robot_dir / internal::kDvlFile);
   impl->ahrs = std::make_unique<AtomicFile>(robot_dir / internal::kAhrsFile);

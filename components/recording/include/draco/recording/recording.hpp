@@ -3,7 +3,7 @@
 //
 // A mission is a directory:
 //   mission.yaml            metadata (MissionInfo): sonar geometry, robots, rates, world, seed
-//   <robot>/sonar.drs       binary sonar pings (PNG-compressed polar images, CRC-checked)
+//   <robot>/sonar.drs       binary sonar pings (compressed polar images, CRC-checked)
 //   <robot>/dvl.csv         DVL body velocity
 //   <robot>/ahrs.csv        attitude and heading
 //   <robot>/depth.csv       depth
@@ -105,13 +105,17 @@ double RecordTime(const Record& record);
 enum class ImageCompression : std::uint8_t {
   kRaw = 0,   // uncompressed rows (fastest, largest)
   kPng = 1,   // lossless PNG, 8-bit grey: any image tool opens it
-  kZlib = 2,  // lossless zlib stream of the raw rows (default: 2-3x faster to write than PNG
-              // and a little smaller on speckle, where lossless compression gains only 15-30 %)
+  kZlib = 2,  // lossless zlib stream of the raw rows (Huffman-only at level 1)
+  kZstd = 3,  // lossless zstd frame of the raw rows (default: as small as zlib level 1 and
+              // several times faster to read; docs/recording-format.md section 10)
 };
 
 struct WriterOptions {
-  ImageCompression compression = ImageCompression::kZlib;
-  int compression_level = 1;  // zlib level 1-9 for kPng and kZlib; 1 is the fastest
+  ImageCompression compression = ImageCompression::kZstd;
+  // kPng and kZlib: zlib level 1-9, 1 the fastest. kZstd: zstd level -131072..22; negative
+  // levels are the fastest and store literals uncompressed (speckle then barely shrinks), 0
+  // means zstd's default (3). Ignored for kRaw.
+  int compression_level = 1;
 };
 
 // Writes one robot's files. Obtained from MissionWriter::OpenRobot; movable, not copyable.
