@@ -279,6 +279,21 @@ TEST(PointcloudIo, HeadersCannotMakeTheReaderAllocateWhatTheFileCannotHold) {
   fs::remove_all(dir);
 }
 
+// Found by fuzz_pointcloud (tests/fuzz): a compressed PCD announcing no points (WIDTH 0) whose
+// data starts with an LZF block announcing 822084064 bytes: PCL 1.13 read the block's sizes
+// anyway and allocated the uncompressed size twice (1.6 GB from a 502-byte file). The block must
+// announce what the header does.
+TEST(PointcloudIo, FuzzFoundCompressedBlockOfNoPointsIsChecked) {
+  const std::string path =
+      DRACO_SOURCE_DIR "/tests/data/fuzz/pcd-compressed-block-of-no-points.pcd";
+  const test_support::LargestAllocation largest;
+  ExpectErrorNaming(path, ReadMap,
+                    "the compressed block holds 822084064 bytes of points, the header announces 0");
+  if (test_support::LargestAllocation::Supported()) {
+    EXPECT_LT(largest.bytes(), 1u << 20);
+  }
+}
+
 // Random byte damage (fixed seeds) in every format: each file reads or is refused with an
 // error naming it; none crashes the process.
 TEST(PointcloudIo, CorruptFilesNeverCrash) {

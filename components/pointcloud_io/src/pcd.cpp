@@ -168,10 +168,13 @@ void CheckPcd(const std::string& path) {
   }
   if (data == "binary_compressed") {
     std::uint32_t sizes_lzf[2] = {0, 0};  // compressed, uncompressed
-    if (points > 0 && !f.read(reinterpret_cast<char*>(sizes_lzf), sizeof(sizes_lzf))) {
+    // PCL reads the block's sizes, and allocates twice the uncompressed one, whenever the data
+    // holds them, even when the header announces no points.
+    const bool block = points > 0 || body >= sizeof(sizes_lzf);
+    if (block && !f.read(reinterpret_cast<char*>(sizes_lzf), sizeof(sizes_lzf))) {
       Fail(path, "truncated before the compressed block");
     }
-    if (points > 0 && sizes_lzf[1] != needed) {
+    if (block && sizes_lzf[1] != needed) {
       Fail(path, "the compressed block holds " + std::to_string(sizes_lzf[1]) +
                      " bytes of points, the header announces " + std::to_string(needed));
     }
