@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "draco/objects/geometry.hpp"
@@ -31,6 +32,25 @@ inline double Shape(const msgs::Object& p, const msgs::Object& q, const MatcherO
       break;
   }
   return std::exp(-2.0 * d);
+}
+
+// A match's answer from its transform and object pairs (indices into a and b): status
+// kMatched, the pairs with their residuals, inliers, RMSE and confidence.
+inline void SetMatched(const msgs::ObjectMap& a, const msgs::ObjectMap& b, const Pose2& T,
+                       const std::vector<std::pair<int, int>>& pairs, msgs::ObjectMatch* match) {
+  match->status = msgs::MatchStatus::kMatched;
+  match->T_a_b = T;
+  match->T_a_b.yaw_rad = NormalizeAngle(T.yaw_rad);
+  double sum2 = 0.0;
+  for (const auto& [i, k] : pairs) {
+    const double r = Distance(a.objects[i].center, Transform(T, b.objects[k].center));
+    match->pairs.push_back({a.objects[i].id, b.objects[k].id, r});
+    sum2 += r * r;
+  }
+  match->num_inliers = static_cast<int>(pairs.size());
+  match->rmse_m = std::sqrt(sum2 / double(pairs.size()));
+  const auto n = static_cast<double>(std::min(a.objects.size(), b.objects.size()));
+  match->confidence = double(match->num_inliers) / n;
 }
 
 // The spectral matcher (spectral_match.cpp): spectral relaxation of the QAP, linear

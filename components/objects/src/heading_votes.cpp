@@ -186,18 +186,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
     match.status = MatchStatus::kHeadingMismatch;
     return match;
   }
-  match.status = MatchStatus::kMatched;
-  match.T_a_b = T;
-  match.T_a_b.yaw_rad = NormalizeAngle(T.yaw_rad);
-  double sum2 = 0.0;
-  for (const auto& [i, k] : pairs) {
-    const double r = Distance(a.objects[i].center, Transform(T, b.objects[k].center));
-    match.pairs.push_back({a.objects[i].id, b.objects[k].id, r});
-    sum2 += r * r;
-  }
-  match.num_inliers = static_cast<int>(pairs.size());
-  match.rmse_m = std::sqrt(sum2 / double(pairs.size()));
-  match.confidence = double(match.num_inliers) / double(std::min(na, nb));
+  SetMatched(a, b, T, pairs, &match);
   return match;
 }
 

@@ -145,7 +145,7 @@ class ObjectMapperStage {
   void OnKeyframe(const msgs::Keyframe& keyframe) {
     own_.OnKeyframe(keyframe);
     odom_heading_rad_ = keyframe.odom_heading_rad;  // the map frame starts as the odom frame
-    if (std::isfinite(keyframe.odom_heading_rad))
+    if (options_.map_heading_from_keyframes && std::isfinite(keyframe.odom_heading_rad))
       ahrs_heading_rad_[keyframe.index] = keyframe.odom_heading_rad + keyframe.T_odom_body.yaw_rad;
   }
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
