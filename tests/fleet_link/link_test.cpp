@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
+#include <cstring>
+#include <map>
 #include <thread>
 
 #include "draco/fleet/link.hpp"
@@ -255,6 +258,77 @@ TEST(LinkEndpoint, LockstepWaitsForALaggingTeammateAndStopsWaitingWhenItLeaves) 
   for (int k = 11; k <= 20; ++k) la.Tick(0.5 * k, nullptr);
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
   EXPECT_EQ(la.counters().lockstep_timeouts, 0u);
+}
+
+// Drops every clock frame (kind 15) a robot sends at the given mission times, as best-effort
+// DDS on a lossy link would; everything else passes.
+class DropClockFrames : public middleware::Transport {
+ public:
+  DropClockFrames(std::unique_ptr<middleware::Transport> inner, std::vector<double> times_s)
+      : inner_(std::move(inner)), times_s_(std::move(times_s)) {}
+  bool Send(const middleware::Frame& frame) override {
+    if (frame.kind == 15 && frame.payload.size() >= 12) {
+      double clock = 0.0;
+      std::uint64_t bits = 0;
+      for (int i = 0; i < 8; ++i) bits |= std::uint64_t{frame.payload[4 + i]} << (8 * i);
+      std::memcpy(&clock, &bits, sizeof clock);
+      for (double t : times_s_) {
+        if (std::abs(t - clock) < 1e-9 && dropped_first_[t]++ == 0) return true;  // lost once
+      }
+    }
+    return inner_->Send(frame);
+  }
+  std::vector<middleware::Frame> Receive() override { return inner_->Receive(); }
+  std::string Describe() const override { return inner_->Describe(); }
+  middleware::TransportCounters counters() const override { return inner_->counters(); }
+
+ private:
+  std::unique_ptr<middleware::Transport> inner_;
+  std::vector<double> times_s_;
+  std::map<double, int> dropped_first_;
+};
+
+TEST(LinkEndpoint, LockstepRepeatsALostClockFrameInsteadOfTimingOut) {
+  // Both robots' clock frames of the ticks at 1.0 and 1.5 s are lost the first time they are
+  // sent. After its tick at 1.5 s each waits for the other's tick at 1.0 s (clock >= 0.75 s)
+  // and has heard only 0.5 s: only a repeat ends the wait before the timeout.
+  const std::string bus = Bus();
+  LinkOptions a = Options(0, 1), b = Options(1, 2);
+  a.team = b.team = {0, 1};
+  a.channel.team_size = b.channel.team_size = 2;
+  a.lockstep = b.lockstep = true;
+  a.lockstep_timeout_s = b.lockstep_timeout_s = 20.0;
+  const std::vector<double> lost = {1.0, 1.5};
+  LinkEndpoint la(
+      a, std::make_unique<DropClockFrames>(middleware::MakeInProcessTransport(bus, 0), lost));
+  std::thread tb([&] {
+    LinkEndpoint lb(
+        b, std::make_unique<DropClockFrames>(middleware::MakeInProcessTransport(bus, 1), lost));
+    for (int k = 0; k <= 6; ++k) lb.Tick(0.5 * k, nullptr);
+    lb.Close(3.0);
+    EXPECT_EQ(lb.counters().lockstep_timeouts, 0u);
+  });
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 0; k <= 6; ++k) la.Tick(0.5 * k, nullptr);
+  tb.join();
+  EXPECT_EQ(la.counters().lockstep_timeouts, 0u);
+  // One wait of a repeat (1 s), far from the 20 s timeout.
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+}
+
+TEST(LinkEndpoint, ClockRepeatsKeepToAQuarterOfTheTeamRate) {
+  LinkOptions o = Options(0, 1);
+  const std::size_t frame_bytes = 29;  // 8-byte modem header + 21-byte clock payload
+  // Three robots, six datagrams a round of (29 + 100) bytes: 6192 bits.
+  o.channel.team_rate_bps = 5000.0;
+  EXPECT_NEAR(ClockRepeatCapS(o, frame_bytes), 6192.0 / 1250.0, 1e-9);
+  o.channel.team_rate_bps = 1000.0;
+  EXPECT_NEAR(ClockRepeatCapS(o, frame_bytes), 6192.0 / 250.0, 1e-9);
+  o.channel.team_rate_bps = 62500.0;  // the paper's modem: the 1 s floor
+  EXPECT_DOUBLE_EQ(ClockRepeatCapS(o, frame_bytes), 1.0);
+  o.team = {0, 1, 2, 3, 4};  // five robots at 5 kbit/s: 20 datagrams a round
+  o.channel.team_rate_bps = 5000.0;
+  EXPECT_NEAR(ClockRepeatCapS(o, frame_bytes), 20.0 * 129.0 * 8.0 / 1250.0, 1e-9);
 }
 
 TEST(LinkEndpoint, AFloodingTeammateCannotCrowdOutTheOthers) {

@@ -59,7 +59,7 @@ for app in draco draco-robot draco-fleet draco-sim draco-eval draco-local-slam d
 done
 for f in graphs/robot.yaml graphs/local-slam.yaml graphs/local-slam-core.yaml \
   graphs/default.yaml missions/airplane.yaml worlds/airplane.yaml generator/harbour.yaml \
-  dds/loopback.xml dds/lan.xml dds/unicast.xml; do
+  dds/loopback.xml dds/lan.xml dds/unicast.xml dds/acoustic.xml; do
   [ -f "$share/$f" ] || fail "share/draco-slam/$f not installed"
 done
 

@@ -18,8 +18,10 @@
 # what each case measured (docs/fleet.md, "A team across network namespaces").
 # Reported cases (not in the default list; DRACO_NETNS_CASES="5 6 7 8" runs them): what they
 # measure is printed as NOTEs, never failed, since on a loaded machine their timing varies:
-#   5  unicast, the whole team at 5 kbit/s with 20 % random loss on every robot's link
-#      (link.team_rate_bps=5000: draco's link spends that budget), against the in-process run
+#   5  the acoustic profile (config/dds/acoustic.xml) with best-effort DDS, the whole team at
+#      5 kbit/s with 20 % random loss on every robot's link (link.team_rate_bps=5000: draco's
+#      link spends that budget), against the in-process run; DRACO_NETNS_SLOW_PROFILE and
+#      DRACO_NETNS_SLOW_RELIABILITY choose another profile and reliability
 #   6  the same at 1 kbit/s
 #   7  unicast, paced at 4x: bravo SIGKILLed 2.5 s after the start and restarted 1.5 s later
 #      (the teammates must see a restart and hear the new bravo)
@@ -49,6 +51,8 @@ graph="$src/config/graphs/robot.yaml"
 robots=(alpha bravo charlie)  # config/missions/marina.yaml, in id order
 cut_robot=charlie             # the robot whose link is shaped (3) and cut (4)
 cases=${DRACO_NETNS_CASES:-1 2 3 4}
+slow_profile=${DRACO_NETNS_SLOW_PROFILE:-acoustic}  # the DDS profile of cases 5 and 6
+slow_reliability=${DRACO_NETNS_SLOW_RELIABILITY:-best_effort}  # and their DDS reliability
 
 skip() {
   echo "SKIP: $*"
@@ -435,8 +439,9 @@ for c in 5 6; do
   done
   if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
     # Discovery alone takes minutes at these rates: 240 s to find the teammates.
-    run_team "c$c" "$title" unicast 0 420 -- --set link.lockstep_timeout_s=30 \
-      --set link.startup_timeout_s=240 --set link.team_rate_bps=$bps
+    run_team "c$c" "$title" "$slow_profile" 0 420 -- --set link.lockstep_timeout_s=30 \
+      --set link.startup_timeout_s=240 --set link.team_rate_bps=$bps \
+      --set link.dds_reliability="$slow_reliability"
     note=""
     for r in "${robots[@]}"; do note="$note${note:+; }$(shaping_note "$r" "20 %")"; done
     check_case "c$c" "$title" heard compare

@@ -272,7 +272,7 @@ void LinkEndpoint::ReceiveAll(double now_s) {
         continue;
       }
       if (!NoteIncarnation(t, inc)) continue;
-      t->clock_s = clock;
+      t->clock_s = std::max(t->clock_s, clock);  // a late repeat never turns it back
       t->left = f.payload[12] != 0;
       t->hears_us = ((GetU64(f.payload, 13, 8) >> options_.robot_id) & 1ULL) != 0;
       t->last_heard_s = now_s;
@@ -332,10 +332,24 @@ bool LinkEndpoint::InStep(const TeammateLinkState& t, double now_s) const {
          t.clock_s > t.timeout_clock_s;
 }
 
+double ClockRepeatCapS(const LinkOptions& options, std::size_t clock_frame_bytes) {
+  const double robots = static_cast<double>(std::max<std::size_t>(options.team.size(), 2));
+  const double bits_per_round =
+      robots * (robots - 1.0) * 8.0 *
+      static_cast<double>(clock_frame_bytes + kClockDatagramOverheadBytes);
+  const double rate_bps = options.channel.team_rate_bps;
+  if (!(rate_bps > 0.0) || !std::isfinite(rate_bps)) return 1.0;
+  return std::max(1.0, bits_per_round / (0.25 * rate_bps));
+}
+
 void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& cancelled) {
   const auto start = std::chrono::steady_clock::now();
   auto last_clock = start;
-  double clock_interval_s = 0.05;  // discovery repeats: 50 ms, doubling up to 1 s
+  // Repeats of the clock frame: while discovering, from 50 ms; once running, from 1 s (the
+  // frame sent after the tick usually arrives); doubling up to a cap that keeps the team's
+  // repeats within a quarter of the link's rate.
+  const double cap_s = ClockRepeatCapS(options_, middleware::kFrameHeaderBits / 8 + kClockBytes);
+  double clock_interval_s = started_ ? std::min(1.0, cap_s) : 0.05;
   const double need = now_s - 1.5 * options_.tick_s;
   while (true) {
     bool ready = true;
@@ -361,14 +375,14 @@ void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& c
       }
       break;
     }
-    if (!started_ && std::chrono::duration<double>(now - last_clock).count() > clock_interval_s) {
-      // Discovery: repeat, a teammate's reader may have matched since; backing off, so that
-      // on a slow link (62.5 kbit/s) the repeats and their reliable resends do not fill the
-      // link before every teammate has joined. Once running, one clock frame per tick
-      // (reliable) is enough, and repeats would only fill histories.
+    if (std::chrono::duration<double>(now - last_clock).count() > clock_interval_s) {
+      // Discovery: a teammate's reader may have matched since. Running: the clock frame or
+      // the teammate's may have been lost (best-effort DDS); with reliable DDS a repeat is
+      // one small sample a second at most. Backing off, so that on a slow link the repeats
+      // (and their reliable resends) do not fill it.
       SendClock(now_s, false);
       last_clock = now;
-      clock_interval_s = std::min(1.0, 2.0 * clock_interval_s);
+      clock_interval_s = std::min(cap_s, 2.0 * clock_interval_s);
     }
     std::this_thread::sleep_for(std::chrono::microseconds(500));
     ReceiveAll(now_s);

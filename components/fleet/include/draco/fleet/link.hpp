@@ -16,7 +16,9 @@
 // lockstep_timeout_s of wall time, until every teammate in step has finished its tick at
 // t - tick_s. A teammate is in step while its clock is within max_lag_s behind; one that times
 // out, says goodbye or falls behind is not waited for until it catches up again. A restarted
-// daemon replays from the start at full speed and rejoins when it catches up.
+// daemon replays from the start at full speed and rejoins when it catches up. While it waits
+// a robot repeats its clock frame (backing off to ClockRepeatCapS), so a lost clock frame
+// (best-effort DDS on a lossy link) costs a repeat, not a lock-step timeout.
 #pragma once
 
 #include <array>
@@ -53,6 +55,14 @@ struct LinkOptions {
   double resend_map_s = 10.0;  // own map sent again this often to a teammate that holds none
   std::size_t max_held_frames = 4096;  // receiver inbox bound, shared equally by the teammates
 };
+
+// Lock-step clock repeats while waiting for teammates (their longest interval, seconds): the
+// team's repeats together take at most a quarter of team_rate_bps, each repeat going to every
+// teammate as its own datagram of clock_frame_bytes plus kClockDatagramOverheadBytes (UDP/IP
+// and RTPS headers); never under 1 s. For three robots: 1 s at the paper's 62.5 kbit/s, 5.0 s
+// at 5 kbit/s, 25 s at 1 kbit/s.
+inline constexpr std::size_t kClockDatagramOverheadBytes = 100;
+double ClockRepeatCapS(const LinkOptions& options, std::size_t clock_frame_bytes);
 
 struct TeammateLinkState {
   int robot_id = 0;
