@@ -264,6 +264,86 @@ TEST(KeyframeSelector, WaitsForDeadReckoningToReachThePing) {
   EXPECT_EQ(sel.Poll().size(), 1u);
 }
 
+// A lawnmower-like path: straight legs and turns, so both the 3 m and the 30 deg rules fire.
+std::vector<msgs::DeadReckoning> Turning(double duration_s) {
+  DeadReckoner dr;
+  std::vector<msgs::DeadReckoning> out;
+  for (int k = 0; k * 0.05 <= duration_s + 1e-9; ++k) {
+    const double t = 0.05 * k;
+    const double yaw = std::fmod(t, 40.0) < 30.0 ? 0.0 : 0.15 * (std::fmod(t, 40.0) - 30.0);
+    dr.AddAhrs(Yaw(t, yaw + M_PI * std::floor(t / 40.0)));
+    out.push_back(*dr.AddDvl(Dvl(t, 0.5)));
+  }
+  return out;
+}
+
+TEST(KeyframeGate, KeepsExactlyThePingsTheSelectorMakesKeyframes) {
+  const auto dr = Turning(200.0);
+  std::vector<double> pings;
+  for (int k = 0; k < 1500; ++k) pings.push_back(-0.3 + 0.1337 * k);  // first ones before DR
+  // The selector on every ping.
+  KeyframeSelector all;
+  for (const auto& d : dr) all.AddDeadReckoning(d);
+  for (double t : pings) {
+    msgs::SonarFeatures f;
+    f.time_s = t;
+    all.AddFeatures(f);
+  }
+  const auto expected = all.Poll();
+  ASSERT_GT(expected.size(), 20u);
+  // The gate, fed dead reckoning in chunks interleaved with the pings (undecided pings wait),
+  // then the selector on the pings it passed.
+  KeyframeGate gate;
+  KeyframeSelector gated;
+  std::size_t next_dr = 0, undecided = 0;
+  std::vector<double> passed;
+  for (std::size_t i = 0; i < pings.size(); ++i) {
+    while (next_dr < dr.size() && dr[next_dr].time_s < pings[i] - 0.2) {
+      gate.AddDeadReckoning(dr[next_dr]);
+      gated.AddDeadReckoning(dr[next_dr++]);
+    }
+    auto verdict = gate.Decide(pings[i]);
+    while (verdict == KeyframeGate::Verdict::kUndecided && next_dr < dr.size()) {
+      ++undecided;
+      gate.AddDeadReckoning(dr[next_dr]);
+      gated.AddDeadReckoning(dr[next_dr++]);
+      verdict = gate.Decide(pings[i]);
+    }
+    if (verdict != KeyframeGate::Verdict::kKeyframe) continue;
+    passed.push_back(pings[i]);
+    msgs::SonarFeatures f;
+    f.time_s = pings[i];
+    gated.AddFeatures(f);
+  }
+  while (next_dr < dr.size()) gated.AddDeadReckoning(dr[next_dr++]);
+  const auto got = gated.Poll();
+  EXPECT_GT(undecided, 0u);
+  ASSERT_EQ(passed.size(), expected.size());
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_DOUBLE_EQ(passed[i], expected[i].time_s);
+    EXPECT_DOUBLE_EQ(got[i].time_s, expected[i].time_s);
+    EXPECT_DOUBLE_EQ(got[i].T_odom_body.yaw_rad, expected[i].T_odom_body.yaw_rad);
+  }
+}
+
+TEST(NavigationComponents, KeyframePingsPassesOnlyKeyframePings) {
+  graph::testing::Harness h("slam.KeyframePings", "min_translation_m: 0.95\n");
+  const auto dr = Straight(0.5, 10.0, 10.0);  // 0.5 m/s: 1 m every 2 s
+  for (int i = 0; i < 50; ++i) {
+    msgs::SonarPing p;
+    p.time_s = 0.2 * i + 0.05;
+    p.ping_id = static_cast<std::uint32_t>(i);
+    h.Feed("ping", graph::Seconds(p.time_s), p);
+  }
+  for (const auto& d : dr) h.Feed("odometry", graph::Seconds(d.time_s), d);
+  h.RunUntilIdle();
+  const auto out = h.Outputs<msgs::SonarPing>("keyframe_ping");
+  // Pings 0.1 m apart: the first, then every tenth (1.0 m > 0.95 m; 0.9 m is not).
+  ASSERT_EQ(out.size(), 5u);
+  for (std::size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i]->ping_id, 10u * i) << i;
+}
+
 TEST(NavigationComponents, DeadReckoningThenKeyframes) {
   graph::testing::Harness h("nav.DeadReckoning", "max_speed_mps: 2.0\n");
   h.Feed("ahrs", graph::Seconds(0.0), Yaw(0.0, 1.0));

@@ -1,6 +1,7 @@
 // A ROS 1 bag replayed through the runtime: sonar.BagReader feeding sonar.Cfar in a YAML
 // graph, deterministic executor, run twice with identical statistics.
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <unistd.h>
@@ -66,9 +67,25 @@ TEST(BagReplayGraph, ShippedLocalSlamGraphRunsOnABag) {
                            "pose_graph.g2o", "map.ply", "map.pcd"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / name)) << name;
   }
+  // Every ping of the bag reaches the keyframe gate; CFAR runs on the keyframes' pings only,
+  // one per line of the trajectory.
+  const auto* pings = Find(result.stats, "pings");
   const auto* cfar = Find(result.stats, "cfar");
+  ASSERT_NE(pings, nullptr);
   ASSERT_NE(cfar, nullptr);
-  EXPECT_EQ(cfar->calls, 3u);  // one per ping of the bag
+  ASSERT_FALSE(pings->inputs.empty());
+  std::uint64_t pings_in = 0;
+  for (const auto& in : pings->inputs) {
+    if (in.name == "ping") pings_in = in.received;
+  }
+  EXPECT_EQ(pings_in, 3u);
+  std::ifstream trajectory(dir / "trajectory.tum");
+  std::uint64_t keyframes = 0;
+  for (std::string line; std::getline(trajectory, line);) {
+    if (!line.empty() && line[0] != '#') ++keyframes;
+  }
+  EXPECT_GE(keyframes, 1u);
+  EXPECT_EQ(cfar->calls, keyframes);
   std::filesystem::remove_all(dir);
 }
 

@@ -60,6 +60,18 @@ void PoseHistory::DropBefore(double time_s) {
   while (samples_.size() >= 2 && samples_[1].time_s <= time_s) samples_.pop_front();
 }
 
+KeyframeGate::Verdict KeyframeGate::Decide(double time_s) {
+  if (history_.empty()) return Verdict::kUndecided;
+  if (time_s < history_.earliest_time_s()) return Verdict::kSkip;
+  if (time_s > history_.latest_time_s()) return Verdict::kUndecided;
+  const msgs::Pose2 pose = *history_.PoseAt(time_s);
+  if (!IsKeyframe(options_, last_time_s_, last_T_odom_body_, time_s, pose)) return Verdict::kSkip;
+  last_time_s_ = time_s;
+  last_T_odom_body_ = pose;
+  history_.DropBefore(time_s);
+  return Verdict::kKeyframe;
+}
+
 std::vector<msgs::Keyframe> KeyframeSelector::Poll() {
   std::vector<msgs::Keyframe> out;
   while (!pending_.empty() && !history_.empty()) {

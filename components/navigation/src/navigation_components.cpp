@@ -1,5 +1,6 @@
 // nav.DeadReckoning and slam.KeyframeSelector: runtime adapters of dead_reckoning.hpp and
 // keyframes.hpp.
+#include <deque>
 #include <string>
 #include <vector>
 
@@ -126,6 +127,56 @@ class KeyframeSelectorComponent final : public graph::Component {
   graph::Out<msgs::Keyframe> keyframe_;
 };
 DRACO_REGISTER_COMPONENT(KeyframeSelectorComponent, "slam.KeyframeSelector")
+
+// Passes on only the pings slam.KeyframeSelector will make keyframes (KeyframeGate), so that
+// the feature extractor between them runs on those alone. Its three parameters must equal the
+// selector's (local-slam-core.yaml sets both from one anchor): with a looser gate the selector
+// picks among fewer pings, with a stricter one it takes every ping it is given.
+class KeyframePingsComponent final : public graph::Component {
+ public:
+  void Declare(Spec& spec) override {
+    spec.Doc(
+        "Passes on only the sonar pings that will become keyframes (slam.KeyframeSelector's "
+        "rule on dead reckoning at the ping time), so CFAR runs on those alone.");
+    ping_ = spec.Input<msgs::SonarPing>("ping", {.depth = 64, .doc = "sonar pings"});
+    odometry_ =
+        spec.Input<msgs::DeadReckoning>("odometry", {.depth = 1024, .doc = "dead reckoning"});
+    out_ = spec.Output<msgs::SonarPing>("keyframe_ping", "the pings of keyframes, unchanged");
+    spec.Param("min_interval_s", &o_.min_interval_s,
+               {"minimum time between keyframes (as slam.KeyframeSelector)", "s", 0.0, {}, {}});
+    spec.Param("min_translation_m", &o_.min_translation_m,
+               {"translation that makes a keyframe (as slam.KeyframeSelector)", "m", 0.0, {}, {}});
+    spec.Param("min_rotation_rad", &o_.min_rotation_rad,
+               {"rotation that makes a keyframe (as slam.KeyframeSelector)", "rad", 0.0, 3.2, {}});
+  }
+  Status Start(Context&) override {
+    gate_ = KeyframeGate(o_);
+    waiting_.clear();
+    return Status::Ok();
+  }
+  Status Process(Context&) override {
+    for (const auto& m : odometry_.TakeAll()) gate_.AddDeadReckoning(*m);
+    for (auto& m : ping_.TakeAll()) waiting_.push_back(std::move(m));
+    while (!waiting_.empty()) {
+      const auto verdict = gate_.Decide(waiting_.front()->time_s);
+      if (verdict == KeyframeGate::Verdict::kUndecided) break;
+      if (verdict == KeyframeGate::Verdict::kKeyframe) {
+        out_.PublishAt(waiting_.front().stamp, waiting_.front().value);
+      }
+      waiting_.pop_front();
+    }
+    return Status::Ok();
+  }
+
+ private:
+  KeyframeOptions o_;
+  KeyframeGate gate_;
+  std::deque<graph::Stamped<msgs::SonarPing>> waiting_;
+  graph::In<msgs::SonarPing> ping_;
+  graph::In<msgs::DeadReckoning> odometry_;
+  graph::Out<msgs::SonarPing> out_;
+};
+DRACO_REGISTER_COMPONENT(KeyframePingsComponent, "slam.KeyframePings")
 
 }  // namespace
 }  // namespace draco::navigation

@@ -43,6 +43,26 @@ class PoseHistory {
   std::deque<msgs::DeadReckoning> samples_;
 };
 
+// Which frames (pings) become keyframes, decided before anything is computed from them: the
+// rule of KeyframeSelector on the same dead reckoning, so fed the same streams it keeps
+// exactly the frames the selector would turn into keyframes. The local-SLAM graph runs CFAR
+// on those pings only (3 % of the marina's). Frames are decided in time order.
+class KeyframeGate {
+ public:
+  enum class Verdict { kUndecided, kKeyframe, kSkip };
+  explicit KeyframeGate(const KeyframeOptions& options = {}) : options_(options) {}
+  void AddDeadReckoning(const msgs::DeadReckoning& dr) { history_.Add(dr); }
+  // kUndecided until dead reckoning reaches time_s (ask again when more has arrived); kSkip
+  // for a frame before the first dead-reckoning sample, as the selector drops those.
+  Verdict Decide(double time_s);
+
+ private:
+  KeyframeOptions options_;
+  PoseHistory history_;
+  std::optional<double> last_time_s_;
+  msgs::Pose2 last_T_odom_body_;
+};
+
 // Pairs feature clouds with dead reckoning and selects keyframes. Feed dead reckoning and
 // features in any interleaving; a feature cloud is decided once dead reckoning reaches
 // its time (features older than the first dead-reckoning sample are dropped).
