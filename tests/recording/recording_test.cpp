@@ -454,6 +454,36 @@ TEST_F(RecordingTest, ReadOptionsSkipStreams) {
   }
 }
 
+// Same kind, time and (for pings) image, record by record.
+void ExpectSameRecords(const std::vector<Record>& got, const std::vector<Record>& expected) {
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_EQ(got[i].index(), expected[i].index()) << i;
+    EXPECT_EQ(RecordTime(got[i]), RecordTime(expected[i])) << i;
+    if (const auto* ping = std::get_if<msgs::SonarPing>(&got[i])) {
+      EXPECT_EQ(ping->intensity, std::get<msgs::SonarPing>(expected[i]).intensity) << i;
+    }
+  }
+}
+
+TEST_F(RecordingTest, PrefetchingReaderGivesTheReadersRecordsInOrder) {
+  WriteMission(10);
+  const std::vector<Record> expected = ReadAll(dir_, "alpha");
+  ASSERT_GT(expected.size(), 20u);
+  for (std::size_t depth : {1u, 3u, 1000u}) {
+    SCOPED_TRACE(depth);
+    PrefetchingReader reader(RobotReader::Open(dir_, "alpha"), depth);
+    EXPECT_EQ(reader.Robot().name, "alpha");
+    std::vector<Record> got;
+    while (auto record = reader.Next()) got.push_back(std::move(*record));
+    EXPECT_FALSE(reader.Next().has_value());  // the end stays the end
+    ExpectSameRecords(got, expected);
+  }
+  // Destroyed with records not taken (its thread waiting for room): returns.
+  PrefetchingReader early(RobotReader::Open(dir_, "alpha"), 2);
+  EXPECT_TRUE(early.Next().has_value());
+}
+
 TEST_F(RecordingTest, TumFileIsPlainTum) {
   WriteMission(2);
   std::ifstream in(Alpha("groundtruth.tum"));
@@ -700,6 +730,23 @@ TEST_F(DamagedMissionTest, SonarTruncatedRecord) {
   ExpectError(ReadError(), {"alpha/sonar.drs", "record 3", "truncated record"});
   WriteFileBytes(Alpha("sonar.drs"), bytes.substr(0, at + 5));
   ExpectError(ReadError(), {"alpha/sonar.drs", "record 3", "truncated record header: 5 of 12"});
+}
+
+TEST_F(DamagedMissionTest, PrefetchingReaderThrowsWhereTheReaderWould) {
+  std::string bytes = ReadFile(Alpha("sonar.drs"));
+  WriteFileBytes(Alpha("sonar.drs"), bytes.substr(0, RecordOffsets(bytes)[3] + 100));
+  std::vector<Record> before_plain, before_prefetched;
+  const std::string plain = RecordingErrorOf([&] {
+    RobotReader reader = RobotReader::Open(dir_, "alpha");
+    while (auto record = reader.Next()) before_plain.push_back(std::move(*record));
+  });
+  const std::string prefetched = RecordingErrorOf([&] {
+    PrefetchingReader reader(RobotReader::Open(dir_, "alpha"), 4);
+    while (auto record = reader.Next()) before_prefetched.push_back(std::move(*record));
+  });
+  ExpectError(prefetched, {"alpha/sonar.drs", "record 3", "truncated record"});
+  EXPECT_EQ(prefetched, plain);
+  ExpectSameRecords(before_prefetched, before_plain);
 }
 
 TEST_F(DamagedMissionTest, SonarCutAtARecordBoundary) {

@@ -218,6 +218,28 @@ class RobotReader {
   std::unique_ptr<Impl> impl_;
 };
 
+// A RobotReader read ahead on a thread of its own, up to `depth` records: Next() gives the
+// same records in the same order as the reader's Next() (and throws its RecordingError where
+// the reader would have), so a replay's outputs do not change, while decompressing pings runs
+// beside the consumer (on 2 cores the team replay's readers leave the executor's thread).
+class PrefetchingReader {
+ public:
+  PrefetchingReader(RobotReader reader, std::size_t depth);
+  PrefetchingReader(const PrefetchingReader&) = delete;
+  PrefetchingReader& operator=(const PrefetchingReader&) = delete;
+  ~PrefetchingReader();  // stops the thread (records not taken are dropped)
+
+  // Waits for the next record; std::nullopt at the end. Rethrows the reader's error.
+  std::optional<Record> Next();
+
+  const MissionInfo& Mission() const;
+  const RobotInfo& Robot() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 // Mission time of a robot's replay: the time of the last AHRS sample (the last line of
 // <mission>/<robot>/ahrs.csv; read from the file's end, cheap), 0 when unknown. For progress
 // lines and for running a team to its longest replay.
