@@ -47,6 +47,7 @@ std::string DescribeRegistry() {
         for (const auto& c : p.info.choices) os << " " << c;
       }
       if (!p.info.doc.empty()) os << "  " << p.info.doc;
+      if (!p.info.origin.empty()) os << " (default " << p.info.origin << ")";
       os << "\n";
     }
     os << "\n";

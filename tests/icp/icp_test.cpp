@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include "draco/graph/graph.hpp"
 #include "draco/graph/testing/harness.hpp"
 #include "draco/icp/icp.hpp"
 #include "draco/icp/kdtree2.hpp"
@@ -311,6 +312,39 @@ TEST(IcpOdometryComponent, EmitsOneFactorPerKeyframeAfterTheFirst) {
   ASSERT_EQ(out.size(), 5u);
   for (const auto& f : out) EXPECT_TRUE(f->scan_matched);
   EXPECT_NEAR(out[0].stamp.Seconds(), 10.0, 1e-9);
+}
+
+TEST(IcpOdometryComponent, DefaultsAreTheCalibratedOnesAndSaySo) {
+  // The component's defaults scale the ICP covariance by 25 and gate at chi2 11.34 (the
+  // library's are 1 and off); both are declared with where they came from.
+  const Drive d = MakeDrive(300, 0.3, 0.035);
+  graph::testing::Harness calibrated("slam.IcpOdometry", "num_previous_keyframes: 3\n");
+  graph::testing::Harness library("slam.IcpOdometry",
+                                  "covariance_scale: 1.0\nmax_dr_mahalanobis2: 0.0\n");
+  for (auto* h : {&calibrated, &library}) {
+    for (const auto& kf : d.keyframes) h->Feed("keyframe", graph::Seconds(kf.time_s), kf);
+    h->RunUntilIdle();
+  }
+  const auto a = calibrated.Outputs<msgs::SequentialFactor>("factor");
+  const auto b = library.Outputs<msgs::SequentialFactor>("factor");
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_TRUE(a[i]->scan_matched && b[i]->scan_matched) << i;
+    for (int k = 0; k < 9; ++k) {
+      EXPECT_NEAR(a[i]->covariance[k], 25.0 * b[i]->covariance[k],
+                  1e-9 * (1.0 + std::abs(a[i]->covariance[k])))
+          << i << " " << k;
+    }
+  }
+  const std::string described = graph::DescribeRegistry();
+  const auto at = described.find("\nslam.IcpOdometry");
+  ASSERT_NE(at, std::string::npos);
+  const std::string odometry = described.substr(at, described.find("\n\n", at + 1) - at);
+  EXPECT_NE(odometry.find("param  covariance_scale : double = 25"), std::string::npos) << odometry;
+  EXPECT_NE(odometry.find("(default 25: ICP's own covariance"), std::string::npos) << odometry;
+  EXPECT_NE(odometry.find("param  max_dr_mahalanobis2 : double = 11.34"), std::string::npos)
+      << odometry;
 }
 
 }  // namespace

@@ -82,8 +82,12 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above)",
                 .unit = "m"});
     spec.Param("min_dr_sigma_yaw_rad", &o_.min_dr_sigma_yaw_rad,
-               {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above)",
-                .unit = "rad"});
+               {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above, "
+                       "the library's default)",
+                .unit = "rad",
+                .origin = "0.02: dead reckoning's heading error per keyframe is ~0.02 rad, twice "
+                          "the 0.01 floor; calibrated against ground truth on the marina and "
+                          "airplane missions: docs/local-slam.md, \"Factor calibration\""});
     spec.Param("loop_rmse_cov_scale", &o_.loop_rmse_cov_scale,
                {.doc = "loop xy variance at least this times the ICP rmse^2 (0: off)", .min = 0});
     spec.Param("loop_overlap_cov_power", &o_.loop_overlap_cov_power,
@@ -278,7 +282,13 @@ class LocalSlamComponent final : public graph::Component {
     trajectory_.PublishAt(ctx.Now(), std::move(t));
   }
 
-  LocalSlamOptions o_;
+  // The runtime's defaults are the calibrated ones (see their origin); the library keeps the
+  // reference's.
+  LocalSlamOptions o_ = [] {
+    LocalSlamOptions o;
+    o.min_dr_sigma_yaw_rad = 0.02;
+    return o;
+  }();
   std::string prefix_;
   std::string pcd_encoding_name_ = "binary";
   pointcloud_io::PcdEncoding pcd_encoding_ = pointcloud_io::PcdEncoding::kBinary;

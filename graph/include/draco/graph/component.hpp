@@ -53,6 +53,9 @@ struct ParamInfo {
   std::optional<double> min;         // inclusive, numeric types and list elements
   std::optional<double> max;         // inclusive
   std::vector<std::string> choices;  // allowed values of a string parameter
+  // Where the default came from when it was measured rather than chosen ("calibrated on ...",
+  // with the doc section that has the figures); shown by `draco list` and --describe.
+  std::string origin;
 };
 
 struct ParamDecl {
