@@ -2,6 +2,7 @@
 #pragma once
 
 #include <pcl/PCLPointCloud2.h>
+#include <pcl/console/print.h>
 #include <pcl/conversions.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -13,6 +14,12 @@
 #include "draco/msgs/slam.hpp"
 
 namespace draco::pointcloud_io::detail {
+
+// draco says what is wrong with a file itself, naming it; PCL's console lines beside that
+// ("Input point cloud has no data!" for every empty map a robot writes, "Failed to find match
+// for field" on foreign files) are noise in a daemon's log. Process-wide, as the PCL
+// registration back ends set it.
+inline void QuietPcl() { pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS); }
 
 inline pcl::PointCloud<pcl::PointXYZ> ToPcl(const std::vector<msgs::Point2>& points) {
   pcl::PointCloud<pcl::PointXYZ> cloud;

@@ -202,6 +202,7 @@ void CheckPcd(const std::string& path) {
 
 void WritePcd(const std::string& path, const std::vector<msgs::Point2>& points,
               PcdEncoding encoding) {
+  detail::QuietPcl();
   const auto cloud = detail::ToPcl(points);
   detail::WriteThroughTemporary(path, "PCD", [&](const std::string& tmp) {
     pcl::PCDWriter writer;
@@ -219,6 +220,7 @@ void WritePcd(const std::string& path, const std::vector<msgs::Point2>& points,
 
 std::vector<msgs::Point2> ReadMapPcd(const std::string& path) {
   CheckPcd(path);
+  detail::QuietPcl();
   pcl::PCLPointCloud2 blob;
   int status = -1;
   try {

@@ -15,6 +15,7 @@
 namespace draco::pointcloud_io {
 
 void WritePly(const std::string& path, const std::vector<msgs::Point2>& points) {
+  detail::QuietPcl();
   const auto cloud = detail::ToPcl(points);
   detail::WriteThroughTemporary(path, "PLY", [&](const std::string& tmp) {
     if (!cloud.empty()) return pcl::io::savePLYFileBinary(tmp, cloud);
@@ -105,6 +106,7 @@ void CheckPly(const std::string& path, std::size_t file_size) {
 
 std::vector<msgs::Point2> ReadMapPly(const std::string& path) {
   CheckPly(path, detail::FileSize(path, "PLY"));
+  detail::QuietPcl();
   pcl::PCLPointCloud2 blob;
   int status = -1;
   try {
