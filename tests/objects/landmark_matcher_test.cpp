@@ -80,6 +80,46 @@ TEST(LandmarkMatcher, RecoversTheTransformFromSharedPoints) {
   }
 }
 
+TEST(LandmarkMatcher, TheHeadingsRuleOutATurnedTwin) {
+  // A scene with a half-turn symmetry: 7 scattered points and their copies turned by 180 deg
+  // about the origin. Map b is the scene seen from a frame shifted and turned by 0.3 rad: the
+  // true transform and the true one turned by 180 deg explain every point alike.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(4.0, 30.0), sign(-1.0, 1.0);
+  std::vector<Point2> half;
+  while (half.size() < 7) {
+    const Point2 p{u(rng), sign(rng) * u(rng)};
+    bool far = true;
+    for (const auto& q : half) {
+      far = far && std::hypot(p.x_m - q.x_m, p.y_m - q.y_m) > 4.0 &&
+            std::hypot(p.x_m + q.x_m, p.y_m + q.y_m) > 4.0;
+    }
+    if (far) half.push_back(p);
+  }
+  std::vector<Point2> a;
+  for (const auto& p : half) a.push_back(p), a.push_back({-p.x_m, -p.y_m});
+  const Pose2 T_a_b{6.0, -3.0, 0.3};
+  std::vector<Point2> b;
+  for (const auto& p : a) b.push_back(Apply(Inverse(T_a_b), p));
+
+  const LandmarkMatchResult blind = MatchLandmarkPoints(a, b);
+  ASSERT_TRUE(blind.found);
+  EXPECT_EQ(blind.support, 14);
+  EXPECT_EQ(blind.runner_up_support, 14);  // the turned twin: as good, so ambiguous
+
+  LandmarkMatchOptions o;
+  o.yaw_prior_rad = 0.3 + 0.1;  // the compasses' difference, 0.1 rad off
+  o.max_yaw_gap_rad = 0.5236;   // 30 deg
+  const LandmarkMatchResult headed = MatchLandmarkPoints(a, b, o);
+  ASSERT_TRUE(headed.found);
+  EXPECT_EQ(headed.support, 14);
+  EXPECT_LT(headed.runner_up_support, 7);
+  EXPECT_NEAR(headed.T_a_b.yaw_rad, 0.3, 1e-6);
+  EXPECT_NEAR(headed.T_a_b.x_m, 6.0, 1e-6);
+  EXPECT_NEAR(headed.T_a_b.y_m, -3.0, 1e-6);
+  EXPECT_LT(headed.hypotheses, blind.hypotheses / 3);  // turned hypotheses are not scored
+}
+
 TEST(LandmarkMatcher, RowOfEquallySpacedPilesIsAmbiguous) {
   // A row of piles 5 m apart: every shift by one spacing explains all but one pile.
   std::vector<Point2> a, b;

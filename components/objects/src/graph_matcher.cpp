@@ -131,10 +131,13 @@ msgs::ObjectMatch MatchWithoutVotes(const ObjectMap& a, const ObjectMap& b,
     return m.found && m.support >= options.min_landmark_support &&
            double(m.runner_up_support) < max_ambiguity * double(m.support);
   };
-  LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, options.landmark);
+  LandmarkMatchOptions landmark = options.landmark;
+  landmark.yaw_prior_rad = HeadingYawPrior(a, b);
+  landmark.max_yaw_gap_rad = options.max_heading_gap_rad;
+  LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, landmark);
   if (!accept(r, options.max_landmark_ambiguity)) {
     if (!(options.wide_landmark_tolerance_m > 0.0)) return clusters;
-    LandmarkMatchOptions wide = options.landmark;
+    LandmarkMatchOptions wide = landmark;
     wide.tolerance_m = options.wide_landmark_tolerance_m;
     r = MatchLandmarkPoints(pa, pb, wide);
     if (!accept(r, options.wide_max_landmark_ambiguity)) return clusters;

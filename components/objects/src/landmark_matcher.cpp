@@ -147,6 +147,7 @@ LandmarkMatchResult MatchLandmarkPoints(const std::vector<Point2>& a_in,
   std::sort(pairs_b.begin(), pairs_b.end(), [](const Pair& x, const Pair& y) {
     return x.d < y.d || (x.d == y.d && (x.k < y.k || (x.k == y.k && x.l < y.l)));
   });
+  const bool prior = o.yaw_prior_rad && o.max_yaw_gap_rad > 0.0;
   std::vector<Hypothesis> kept;  // support >= 3
   std::vector<int> stamp(a.size(), 0);
   Hypothesis best;
@@ -162,6 +163,7 @@ LandmarkMatchResult MatchLandmarkPoints(const std::vector<Point2>& a_in,
           const Point2& bk = b[flip ? it->l : it->k];
           const Point2& bl = b[flip ? it->k : it->l];
           const double yaw = std::atan2(ay, ax) - std::atan2(bl.y_m - bk.y_m, bl.x_m - bk.x_m);
+          if (prior && std::abs(Wrap(yaw - *o.yaw_prior_rad)) > o.max_yaw_gap_rad) continue;
           const double c = std::cos(yaw), s = std::sin(yaw);
           const double mx = 0.5 * (bk.x_m + bl.x_m), my = 0.5 * (bk.y_m + bl.y_m);
           const Pose2 T{0.5 * (a[i].x_m + a[j].x_m) - (c * mx - s * my),

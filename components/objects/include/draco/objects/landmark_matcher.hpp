@@ -16,6 +16,7 @@
 // support, else 0 or a lower bound). Deterministic: no sampling.
 #pragma once
 
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -31,6 +32,10 @@ struct LandmarkMatchOptions {
   int max_points = 150;  // per map; the first ones are used (callers order by evidence)
   double distinct_m = 3.0;
   double distinct_rad = 0.1745;  // 10 deg
+  // With the maps' absolute headings known: hypotheses turned more than max_yaw_gap_rad from
+  // yaw_prior_rad are not scored (neither the answer nor its runner-up can be one of them).
+  std::optional<double> yaw_prior_rad;
+  double max_yaw_gap_rad = 0.0;  // <= 0: no prior
 };
 
 struct LandmarkMatchResult {
