@@ -158,6 +158,9 @@ int main(int argc, char** argv) {
     auto run_info = draco::app::MakeRunInfo("draco", argc, argv);
     run_info.AddFile("graph", graph_path);
     draco::app::WriteRunInfo(options.output_dir, run_info);
+    // What runs, every parameter resolved: `draco run` of this file runs it again.
+    draco::graph::WriteFileAtomicallyOrThrow(options.output_dir + "/graph.yaml",
+                                             draco::graph::ResolvedYaml(*graph));
     options.stop_requested = &g_stop;
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);

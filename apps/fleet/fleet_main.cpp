@@ -129,6 +129,9 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   const std::string yaml = draco::fleet_app::ComposeTeamGraph(o.graph, team);
   auto graph = draco::graph::LoadGraphString(yaml, "team graph composed from " + o.graph, load,
                                              fs::path(o.graph).parent_path().string());
+  // What ran, every parameter resolved (the daemons write theirs as <robot>.graph.yaml).
+  draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/team.graph.yaml",
+                                           draco::graph::ResolvedYaml(*graph));
   draco::graph::RunOptions run;
   run.output_dir = out_dir;
   run.stop_requested = &g_stop;

@@ -160,6 +160,9 @@ int main(int argc, char** argv) {
     load.overrides = draco::fleet_app::RobotOverrides(setup, "");
     load.overrides.insert(load.overrides.end(), overrides.begin(), overrides.end());
     auto graph = draco::graph::LoadGraphFile(graph_path, load);
+    // What runs, every parameter resolved (defaults, the graph file, the overrides).
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + robot + ".graph.yaml",
+                                             draco::graph::ResolvedYaml(*graph));
 
     draco::graph::RunOptions run;
     run.output_dir = out_dir;

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -62,6 +63,41 @@ TEST(Loader, ParametersAreApplied) {
   ASSERT_NE(factor, nullptr);
   EXPECT_DOUBLE_EQ(*static_cast<double*>(factor->target), 2.0);
   EXPECT_EQ(factor->default_text, "1.0");  // the in-code default, for `draco list`
+}
+
+TEST(Loader, ResolvedYamlLoadsBackToTheSameGraph) {
+  const std::string yaml = std::string(kValid) +
+                           "  - id: sink\n    type: example.CsvSink\n"
+                           "    inputs: { in: scale/out }\n";
+  LoadOptions options;
+  options.overrides = {"scale.factor=3.25", R"(sink.file='a "quoted" name.csv')"};
+  auto g = LoadGraphString(yaml, "g.yaml", options);
+  const std::string resolved = ResolvedYaml(*g);
+  // Overrides, values from the file and in-code defaults alike.
+  EXPECT_NE(resolved.find("factor: 3.25"), std::string::npos) << resolved;
+  EXPECT_NE(resolved.find("count: 3"), std::string::npos) << resolved;
+  EXPECT_NE(resolved.find("period_s: 0.5"), std::string::npos) << resolved;
+  EXPECT_NE(resolved.find("first: "), std::string::npos) << resolved;  // not in the file
+  EXPECT_NE(resolved.find("in: scale/out"), std::string::npos) << resolved;
+  // fail_above defaults to infinity, which a graph file cannot say: left out, with a note
+  // (and infinite again once loaded: below).
+  EXPECT_NE(resolved.find("# fail_above: not finite"), std::string::npos) << resolved;
+  // Loaded again: the same components, edges and parameter values.
+  auto again = LoadGraphString(resolved, "resolved.yaml");
+  ASSERT_EQ(again->nodes.size(), g->nodes.size());
+  ASSERT_EQ(again->edges.size(), g->edges.size());
+  for (std::size_t i = 0; i < g->edges.size(); ++i) {
+    EXPECT_EQ(again->edges[i].producer, g->edges[i].producer);
+    EXPECT_EQ(again->edges[i].consumer, g->edges[i].consumer);
+  }
+  const std::string twice = ResolvedYaml(*again);
+  EXPECT_EQ(twice.substr(twice.find('\n')), resolved.substr(resolved.find('\n')));
+  EXPECT_EQ(*static_cast<const std::string*>(again->Find("sink")->FindParam("file")->target),
+            "a \"quoted\" name.csv");
+  EXPECT_DOUBLE_EQ(*static_cast<const double*>(again->Find("scale")->FindParam("factor")->target),
+                   3.25);
+  EXPECT_TRUE(std::isinf(
+      *static_cast<const double*>(again->Find("scale")->FindParam("fail_above")->target)));
 }
 
 TEST(Loader, UnknownComponentType) {

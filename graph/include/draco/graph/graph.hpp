@@ -104,6 +104,11 @@ std::unique_ptr<Graph> LoadGraphString(const std::string& yaml, const std::strin
 // delayed edges dashed.
 std::string ToDot(const Graph& graph);
 
+// The graph as loaded, as a YAML graph file: every component, its inputs (from the edges) and
+// every parameter's current value, in-code defaults and overrides included. Loading it gives
+// the same components, edges and parameters. Apps write it into their run folders.
+std::string ResolvedYaml(const Graph& graph);
+
 // Human-readable description of every registered component (ports, parameters, units, docs).
 std::string DescribeRegistry();
 
