@@ -83,6 +83,17 @@ class DeadReckoningComponent final : public graph::Component {
 };
 DRACO_REGISTER_COMPONENT(DeadReckoningComponent, "nav.DeadReckoning")
 
+// The keyframe rule's parameters, declared alike by slam.KeyframeSelector and
+// slam.KeyframePings.
+void DeclareKeyframeRule(Spec& spec, KeyframeOptions* o) {
+  spec.Param("min_interval_s", &o->min_interval_s,
+             {"minimum time between keyframes", "s", 0.0, {}, {}});
+  spec.Param("min_translation_m", &o->min_translation_m,
+             {"translation that makes a keyframe", "m", 0.0, {}, {}});
+  spec.Param("min_rotation_rad", &o->min_rotation_rad,
+             {"rotation that makes a keyframe", "rad", 0.0, 3.2, {}});
+}
+
 class KeyframeSelectorComponent final : public graph::Component {
  public:
   void Declare(Spec& spec) override {
@@ -93,12 +104,7 @@ class KeyframeSelectorComponent final : public graph::Component {
     odometry_ =
         spec.Input<msgs::DeadReckoning>("odometry", {.depth = 1024, .doc = "dead reckoning"});
     keyframe_ = spec.Output<msgs::Keyframe>("keyframe", "stamped with the ping time");
-    spec.Param("min_interval_s", &o_.min_interval_s,
-               {"minimum time between keyframes", "s", 0.0, {}, {}});
-    spec.Param("min_translation_m", &o_.min_translation_m,
-               {"translation that makes a keyframe", "m", 0.0, {}, {}});
-    spec.Param("min_rotation_rad", &o_.min_rotation_rad,
-               {"rotation that makes a keyframe", "rad", 0.0, 3.2, {}});
+    DeclareKeyframeRule(spec, &o_);
     spec.Param("T_body_sensor", &T_body_sensor_,
                {"sonar mounting [x_m, y_m, yaw_rad]", "", {}, {}, {}});
   }
@@ -129,9 +135,9 @@ class KeyframeSelectorComponent final : public graph::Component {
 DRACO_REGISTER_COMPONENT(KeyframeSelectorComponent, "slam.KeyframeSelector")
 
 // Passes on only the pings slam.KeyframeSelector will make keyframes (KeyframeGate), so that
-// the feature extractor between them runs on those alone. Its three parameters must equal the
-// selector's (local-slam-core.yaml sets both from one anchor): with a looser gate the selector
-// picks among fewer pings, with a stricter one it takes every ping it is given.
+// the feature extractor between them runs on those alone. Its three parameters (declared by
+// the same DeclareKeyframeRule) must be set to the selector's: with a looser gate the
+// selector picks among fewer pings, with a stricter one it takes every ping it is given.
 class KeyframePingsComponent final : public graph::Component {
  public:
   void Declare(Spec& spec) override {
@@ -142,12 +148,7 @@ class KeyframePingsComponent final : public graph::Component {
     odometry_ =
         spec.Input<msgs::DeadReckoning>("odometry", {.depth = 1024, .doc = "dead reckoning"});
     out_ = spec.Output<msgs::SonarPing>("keyframe_ping", "the pings of keyframes, unchanged");
-    spec.Param("min_interval_s", &o_.min_interval_s,
-               {"minimum time between keyframes (as slam.KeyframeSelector)", "s", 0.0, {}, {}});
-    spec.Param("min_translation_m", &o_.min_translation_m,
-               {"translation that makes a keyframe (as slam.KeyframeSelector)", "m", 0.0, {}, {}});
-    spec.Param("min_rotation_rad", &o_.min_rotation_rad,
-               {"rotation that makes a keyframe (as slam.KeyframeSelector)", "rad", 0.0, 3.2, {}});
+    DeclareKeyframeRule(spec, &o_);
   }
   Status Start(Context&) override {
     gate_ = KeyframeGate(o_);
