@@ -18,6 +18,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -77,6 +78,7 @@ struct Options {
   double restart_after_s = -1.0;       // wall seconds after the kill; < 0: never
   double timeout_s = 3600.0;
   double rate = 0.0;  // dds: pace the daemons at N x real time (0: lock-step only)
+  int threads = 0;    // inproc: robots on up to this many threads (0: the cores, at most 4)
 };
 
 // A mode's folder (<out>/inproc, <out>/dds) holds one run. An earlier run's files there are
@@ -135,6 +137,9 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   draco::graph::RunOptions run;
   run.output_dir = out_dir;
   run.stop_requested = &g_stop;
+  run.island_threads =
+      o.threads > 0 ? o.threads
+                    : static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   if (const double end_s = draco::fleet_app::MissionLengthS(o.mission, team); end_s > 0.0) {
     run.until = draco::graph::Time::FromSeconds(end_s);
   } else {
@@ -317,6 +322,10 @@ int main(int argc, char** argv) {
   app.add_option("--rate", o.rate,
                  "dds: pace the daemons at N x real time (0: as fast as lock-step allows)");
   app.add_option("--timeout-s", o.timeout_s, "dds: stop the daemons after this many seconds");
+  app.add_option("--threads", o.threads,
+                 "inproc: run the robots on up to this many threads, with the outputs of one "
+                 "(default 0: the machine's cores, at most 4; 1: one thread)")
+      ->check(CLI::Range(0, 64));
   app.set_version_flag("--version", draco::app::VersionLine("draco-fleet"));
   CLI11_PARSE(app, argc, argv);
   std::signal(SIGINT, OnSignal);

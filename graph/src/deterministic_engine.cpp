@@ -1,21 +1,44 @@
 #include "deterministic_engine.hpp"
 
+#include "islands.hpp"
+
+#include <algorithm>
 #include <exception>
 #include <thread>
 
 namespace draco::graph::internal {
 
+namespace {
+
+std::vector<std::uint32_t> AllNodes(const Graph& graph) {
+  std::vector<std::uint32_t> all(graph.nodes.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<std::uint32_t>(i);
+  return all;
+}
+
+}  // namespace
+
 DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options)
+    : DeterministicEngine(graph, options, AllNodes(graph), nullptr) {}
+
+DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options,
+                                         std::vector<std::uint32_t> nodes, StatsRecorder* recorder)
     : graph_(graph),
       options_(options),
+      nodes_(std::move(nodes)),
       node_now_(graph.nodes.size()),
       next_seq_(graph.nodes.size() + 1, 0),
       source_pending_(graph.nodes.size(), false),
-      recorder_(graph.nodes.size()),
+      own_recorder_(recorder == nullptr ? graph.nodes.size() : 0),
+      recorder_(recorder == nullptr ? &own_recorder_ : recorder),
       output_dir_(options.output_dir) {
+  std::sort(nodes_.begin(), nodes_.end());
   rate_ = options.use_graph_rate ? graph.settings.rate : options.rate;
   for (const auto& n : graph_.nodes) {
     producer_ids_.push_back(std::make_shared<const std::string>(n->id));
+  }
+  for (const std::uint32_t index : nodes_) {
+    const auto& n = graph_.nodes[index];
     for (auto& out : n->outputs) {
       const std::uint32_t producer = n->index;
       out->set_default_stamp(&node_now_[producer]);
@@ -32,8 +55,8 @@ DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options
 }
 
 DeterministicEngine::~DeterministicEngine() {
-  for (const auto& n : graph_.nodes) {
-    for (auto& out : n->outputs) {
+  for (const std::uint32_t index : nodes_) {
+    for (auto& out : graph_.nodes[index]->outputs) {
       out->set_emit(nullptr);
       out->set_default_stamp(nullptr);
     }
@@ -89,14 +112,20 @@ void DeterministicEngine::Inject(std::uint32_t node, std::size_t input, Time sta
 }
 
 bool DeterministicEngine::StartAll() {
-  for (const auto& n : graph_.nodes) {
-    Call(n->index, Reason::kStart, "");
+  for (const std::uint32_t index : nodes_) {
+    Call(index, Reason::kStart, "");
     if (failed()) return false;
   }
-  for (const auto& n : graph_.nodes) {
-    if (n->is_source) ScheduleSource(n->index);
+  for (const std::uint32_t index : nodes_) {
+    if (graph_.nodes[index]->is_source) ScheduleSource(index);
   }
   return !failed();
+}
+
+Time DeterministicEngine::NextEventTime() const {
+  Time next = queue_.empty() ? Time::Max() : queue_.top().stamp;
+  for (const auto& ts : timers_) next = std::min(next, ts.next);
+  return next;
 }
 
 void DeterministicEngine::ScheduleSource(std::uint32_t node) {
@@ -126,7 +155,7 @@ void DeterministicEngine::Call(std::uint32_t node, Reason reason, const std::str
   ctx.SetStopFlag(options_.stop_requested);
   ctx.SetEvent(reason, timer);
   const std::string fatal =
-      internal::InvokeComponent(n, ctx, reason, recorder_, options_.log_errors);
+      internal::InvokeComponent(n, ctx, reason, *recorder_, options_.log_errors);
   if (!fatal.empty() && error_.empty()) error_ = fatal;
 }
 
@@ -245,6 +274,7 @@ void DeterministicEngine::StopAll() {
   };
   drain();
   for (std::uint32_t node : graph_.TopologicalOrder()) {
+    if (!std::binary_search(nodes_.begin(), nodes_.end(), node)) continue;
     Call(node, Reason::kStop, "");
     drain();
   }
@@ -255,6 +285,7 @@ void DeterministicEngine::StopAll() {
 namespace draco::graph {
 
 RunResult RunDeterministic(Graph& graph, const RunOptions& options) {
+  if (auto parallel = internal::RunIslands(graph, options)) return std::move(*parallel);
   const auto t0 = std::chrono::steady_clock::now();
   internal::DeterministicEngine engine(graph, options);
   RunResult result;

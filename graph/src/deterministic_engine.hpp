@@ -15,7 +15,12 @@ namespace draco::graph::internal {
 
 class DeterministicEngine {
  public:
+  // Runs every node of the graph.
   DeterministicEngine(Graph& graph, const RunOptions& options);
+  // Runs only `nodes` (an island: no edge leaves it), recording into `recorder`, which other
+  // engines may share (each node's entry is touched only by its own engine).
+  DeterministicEngine(Graph& graph, const RunOptions& options, std::vector<std::uint32_t> nodes,
+                      StatsRecorder* recorder);
   ~DeterministicEngine();
   DeterministicEngine(const DeterministicEngine&) = delete;
   DeterministicEngine& operator=(const DeterministicEngine&) = delete;
@@ -34,12 +39,15 @@ class DeterministicEngine {
   void EnableTaps() { taps_enabled_ = true; }
   const std::vector<Envelope>& Tapped(std::uint32_t node, std::size_t output) const;
 
+  // Stamp of the next event or timer; Time::Max() when none is left.
+  Time NextEventTime() const;
+
   bool failed() const { return !error_.empty(); }
   bool interrupted() const { return interrupted_; }
   const std::string& error() const { return error_; }
   Time now() const { return now_; }
   RunStats Stats(double wall_s) const {
-    return recorder_.Collect(graph_, "deterministic", wall_s, now_);
+    return recorder_->Collect(graph_, "deterministic", wall_s, now_);
   }
 
  private:
@@ -82,6 +90,7 @@ class DeterministicEngine {
 
   Graph& graph_;
   RunOptions options_;
+  std::vector<std::uint32_t> nodes_;  // the nodes this engine runs, ascending
   double rate_ = 0.0;
   Time now_{};
   std::vector<Time> node_now_;
@@ -91,7 +100,8 @@ class DeterministicEngine {
   std::uint64_t order_ = 0;
   std::vector<TimerState> timers_;
   std::vector<bool> source_pending_;
-  StatsRecorder recorder_;
+  StatsRecorder own_recorder_;
+  StatsRecorder* recorder_;
   std::string error_;
   bool interrupted_ = false;
   bool taps_enabled_ = false;

@@ -90,6 +90,35 @@ ls "$work/term" | grep -q partial && fail "SIGTERM: a partial file was left"
 out=$("$robot" --mission "$work/m" --robot zulu --out "$work/z" 2>&1) && fail "unknown robot accepted"
 echo "$out" | grep -q "has no robot 'zulu'" || fail "unclear message: $out"
 
+# 6. The in-process team on one thread and on several gives the same files (but for wall
+#    times, the incarnations drawn from the clock and the bus name in the resolved graph).
+"$fleet" "$work/m" --mode inproc --threads 1 --out "$work/t1" >"$work/t1.log" 2>&1 ||
+  { cat "$work/t1.log"; fail "in-process run on one thread"; }
+"$fleet" "$work/m" --mode inproc --threads 3 --out "$work/t3" >"$work/t3.log" 2>&1 ||
+  { cat "$work/t3.log"; fail "in-process run on three threads"; }
+python3 - "$work/t1/inproc" "$work/t3/inproc" <<'PY' || fail "one thread and three differ"
+import json, os, re, sys
+a, b = sys.argv[1], sys.argv[2]
+names = sorted(os.listdir(a))
+assert names == sorted(os.listdir(b)), (names, sorted(os.listdir(b)))
+assert any(n.endswith(".inter_loops.csv") for n in names), names
+def text(path):
+    t = open(path, "rb").read().decode("utf-8", "replace")
+    n = os.path.basename(path)
+    if n.endswith(".agent_steps.csv"):  # the last column is wall_ms
+        t = "\n".join(l.rsplit(",", 1)[0] for l in t.splitlines())
+    if n.endswith(".link_stats.json"):
+        t = re.sub(r'"incarnation": \d+|"inproc:team-\d+"', "", t)
+    if n == "team.graph.yaml":
+        t = re.sub(r'bus: "team-\d+"', "", t)
+    return t
+for n in names:
+    if n == "runtime_stats.json":
+        continue
+    assert text(os.path.join(a, n)) == text(os.path.join(b, n)), n
+print("identical:", len(names) - 1, "files")
+PY
+
 # 5. Run folders.
 echo "0 999 999 0 0 0 0 1" >"$work/both/inproc/alpha.team.stale.tum"
 "$fleet" "$work/m" --mode inproc --out "$work/both" >"$work/again.log" 2>&1 ||

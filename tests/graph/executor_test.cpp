@@ -5,6 +5,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "draco/graph/executor.hpp"
@@ -369,6 +370,101 @@ TEST(Progress, PrinterWritesAtItsPeriodWithShareRateAndEta) {
   unknown.Update(Time::FromSeconds(30.0));
   ASSERT_EQ(lines.size(), 1u);
   EXPECT_EQ(lines[0], "draco: g: mission 30.0 s, 5.0x real time");
+}
+
+}  // namespace
+}  // namespace draco::graph
+
+namespace draco::graph {
+namespace {
+
+// Three robots of a pretend team (islands: no edge joins them) that talk through a mailbox
+// outside the graph with a 0.25 s least delay (test.MailRobot), and a fourth island that
+// talks to nobody. `first_b` changes what robot b hears, so it shows in a's and c's outputs.
+std::string MailTeam(const std::string& bus, int first_b = 100, int fail_at = 0) {
+  std::string y = "schema: 1\ncomponents:\n";
+  const char* names[] = {"a", "b", "c"};
+  for (int i = 0; i < 3; ++i) {
+    const std::string n = names[i];
+    const int first = i == 1 ? first_b : 10 * i;
+    y += "  - { id: " + n + "_src, type: example.Ticker, params: { count: 300, period_s: 0.07, " +
+         "first: " + std::to_string(first) + ", step: " + std::to_string(i + 1) + " } }\n";
+    y += "  - { id: " + n + "_robot, type: test.MailRobot, inputs: { in: " + n +
+         "_src/value }, params: { bus: " + bus + ", me: " + std::to_string(i) +
+         ", members: 3, delay_s: 0.25, work: " + std::to_string(20000 * (i + 1)) + " } }\n";
+    y += "  - { id: " + n + "_sink, type: example.CsvSink, inputs: { in: " + n +
+         "_robot/state }, params: { file: " + n + ".csv } }\n";
+  }
+  y += "  - { id: d_src, type: example.Ticker, params: { count: 50, period_s: 0.3 } }\n";
+  y += "  - { id: d_sink, type: example.CsvSink, inputs: { in: d_src/value }, params: { file: "
+       "d.csv } }\n";
+  if (fail_at > 0) {
+    y += "  - { id: c_fatal, type: test.Fatal, inputs: { in: c_src/value }, params: { fail_at: " +
+         std::to_string(fail_at) + " } }\n";
+  }
+  return y;
+}
+
+struct TeamRun {
+  RunResult result;
+  std::map<std::string, std::string> files;
+};
+
+TeamRun RunMailTeam(const std::string& name, int threads, int first_b = 100, int fail_at = 0) {
+  const std::string dir = TempDir(name);
+  auto g = LoadGraphString(MailTeam(name, first_b, fail_at), name + ".yaml");
+  RunOptions o;
+  o.output_dir = dir;
+  o.until = Time::FromSeconds(20.0);
+  o.island_threads = threads;
+  TeamRun run;
+  run.result = RunDeterministic(*g, o);
+  for (const char* f : {"a.csv", "b.csv", "c.csv", "d.csv"}) run.files[f] = ReadFile(dir + "/" + f);
+  std::filesystem::remove_all(dir);
+  return run;
+}
+
+TEST(Islands, RunInParallelWithTheOutputsOfOneThread) {
+  const TeamRun one = RunMailTeam("islands_one", 1);
+  ASSERT_TRUE(one.result.ok) << one.result.error;
+  for (const auto& [file, text] : one.files) {
+    EXPECT_GT(std::count(text.begin(), text.end(), '\n'), 40) << file;
+  }
+  for (int threads : {2, 3, 2, 4, 2}) {
+    const TeamRun many = RunMailTeam("islands_" + std::to_string(threads), threads);
+    ASSERT_TRUE(many.result.ok) << many.result.error;
+    for (const auto& [file, text] : one.files) {
+      EXPECT_EQ(many.files.at(file), text) << file << " with " << threads << " threads";
+    }
+    ASSERT_EQ(many.result.stats.components.size(), one.result.stats.components.size());
+    for (std::size_t i = 0; i < one.result.stats.components.size(); ++i) {
+      EXPECT_EQ(many.result.stats.components[i].calls, one.result.stats.components[i].calls)
+          << one.result.stats.components[i].id;
+    }
+    EXPECT_DOUBLE_EQ(many.result.stats.mission_s, one.result.stats.mission_s);
+  }
+}
+
+TEST(Islands, WhatOneIslandHearsOfAnotherShowsInItsOutputs) {
+  // The check above would pass for islands that never hear each other: b's inputs must
+  // reach a and c through the mailbox (and not d, which hears nobody), on either executor.
+  for (int threads : {1, 3}) {
+    const TeamRun base = RunMailTeam("islands_base" + std::to_string(threads), threads);
+    const TeamRun other = RunMailTeam("islands_other" + std::to_string(threads), threads, 7);
+    ASSERT_TRUE(base.result.ok && other.result.ok);
+    EXPECT_NE(base.files.at("a.csv"), other.files.at("a.csv"));
+    EXPECT_NE(base.files.at("c.csv"), other.files.at("c.csv"));
+    EXPECT_EQ(base.files.at("d.csv"), other.files.at("d.csv"));
+  }
+}
+
+TEST(Islands, AFatalErrorInOneIslandStopsEveryIsland) {
+  const TeamRun r = RunMailTeam("islands_fatal", 3, 100, 40);
+  EXPECT_FALSE(r.result.ok);
+  EXPECT_EQ(r.result.error, "c_fatal: message 40 is bad");
+  // The others stopped early too: far fewer than the 285 states 20 s of mission give.
+  const auto& a = r.files.at("a.csv");
+  EXPECT_LT(std::count(a.begin(), a.end(), '\n'), 200);
 }
 
 }  // namespace

@@ -1,7 +1,11 @@
 #include "test_components.hpp"
 
 #include <chrono>
+#include <cmath>
+#include <map>
+#include <mutex>
 #include <thread>
+#include <tuple>
 
 #include "draco/graph/component.hpp"
 
@@ -43,6 +47,68 @@ class IntSource final : public Component {
   Out<int> out_;
 };
 DRACO_REGISTER_COMPONENT(IntSource, "test.IntSource")
+
+// A robot of a pretend team: publishes a state every `period_s` of mission time that mixes
+// the values its `input` brought and what the other members posted to it on a process-wide
+// mailbox (outside the graph's ports) at least `delay_s` earlier; then posts the state to
+// every other member, due delay_s later. Mailbox reads take only what is due, in (due,
+// sender, seq) order, as the fleet link's inbox does, so the outputs depend on what the others
+// did, never on how the threads ran. `work` spins that many iterations per step (uneven load).
+struct Mail {
+  double value;
+};
+std::mutex g_mail_mutex;
+std::map<std::string, std::map<std::tuple<double, int, int>, Mail>> g_mail;  // to -> letters
+
+class MailRobot final : public Component {
+ public:
+  void Declare(Spec& spec) override {
+    in_ = spec.Input<double>("in", {.trigger = false, .depth = 4096, .required = false});
+    out_ = spec.Output<double>("state");
+    spec.Timer("tick", 0.5, "exchange and publish");
+    spec.Param("bus", &bus_, {.doc = "mailbox name prefix"});
+    spec.Param("me", &me_, {.doc = "member index", .min = 0});
+    spec.Param("members", &members_, {.doc = "team size", .min = 1});
+    spec.Param("delay_s", &delay_s_, {.doc = "least delay of a letter", .min = 0.0});
+    spec.Param("work", &work_, {.doc = "spin iterations per step", .min = 0});
+  }
+  std::optional<Time> CrossIslandDelay() const override { return Time::FromSeconds(delay_s_); }
+  Status Process(Context& ctx) override {
+    const double now_s = ctx.Now().Seconds();
+    for (const auto& m : in_.TakeAll()) state_ = std::fmod(state_ * 1.000001 + *m, 1e9);
+    {
+      std::lock_guard lock(g_mail_mutex);
+      auto& box = g_mail[bus_ + std::to_string(me_)];
+      for (auto it = box.begin(); it != box.end() && std::get<0>(it->first) <= now_s;) {
+        state_ = std::fmod(state_ * 31.0 + it->second.value + std::get<1>(it->first), 1e9);
+        it = box.erase(it);
+      }
+    }
+    volatile double spin = 0.0;  // uneven load: members take turns being slow
+    const int n = (static_cast<int>(now_s * 2.0) % members_ == me_) ? work_ : work_ / 10;
+    for (int i = 0; i < n; ++i) spin = spin + std::sqrt(double(i));
+    out_.Publish(state_);
+    std::lock_guard lock(g_mail_mutex);
+    for (int to = 0; to < members_; ++to) {
+      if (to == me_) continue;
+      g_mail[bus_ + std::to_string(to)][{now_s + delay_s_, me_, seq_}] = Mail{state_};
+    }
+    ++seq_;
+    return Status::Ok();
+  }
+
+ private:
+  std::string bus_ = "mail";
+  int me_ = 0;
+  int members_ = 1;
+  double delay_s_ = 0.25;
+  int work_ = 0;
+  int seq_ = 0;
+  double state_ = 1.0;
+  In<double> in_;
+  Out<double> out_;
+};
+DRACO_REGISTER_COMPONENT(MailRobot, "test.MailRobot")
 
 // Passes doubles through; one input may be declared delayed (feedback edges).
 class Relay final : public Component {

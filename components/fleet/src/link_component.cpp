@@ -98,6 +98,12 @@ class LinkComponent final : public graph::Component {
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
 
+  // The delivery rule (link.hpp): a frame sent in a tick at t is handed out at the earliest
+  // at t + tick_s / 2, whatever the channel; a microsecond less covers rounding.
+  std::optional<graph::Time> CrossIslandDelay() const override {
+    return graph::Time::FromSeconds(o_.tick_s / 2.0 - 1e-6);
+  }
+
   Status Start(Context&) override {
     o_.team = team_;
     o_.channel.team_size = static_cast<int>(team_.size());

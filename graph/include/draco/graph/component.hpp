@@ -170,6 +170,12 @@ class Component {
   virtual std::optional<Time> SourceEndTime() const { return std::nullopt; }
   // The run ends: flush outputs (messages published here are still delivered).
   virtual Status Stop(Context& /*ctx*/) { return Status::Ok(); }
+  // Parameters are set (asked before Start()): a component that exchanges data with other islands
+  // of the graph outside its ports (an in-process bus between robots) returns the least mission
+  // time between an event it processes and any effect of that event another island can observe.
+  // With RunOptions::island_threads > 1 the deterministic executor runs islands in parallel, each
+  // at most this far ahead of the others. nullopt: nothing leaves the graph but its ports.
+  virtual std::optional<Time> CrossIslandDelay() const { return std::nullopt; }
 };
 
 // Type-name registry of component factories, filled by static registration.

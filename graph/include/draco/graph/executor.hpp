@@ -1,8 +1,12 @@
 // Executors run a validated Graph. Both call the same components through the same
 // contract; they differ in scheduling:
-//  - deterministic: one thread; pending messages merged by (stamp, producer id, sequence);
-//    a virtual clock; as fast as possible or paced at N x real time. Identical inputs give
-//    identical outputs.
+//  - deterministic: pending messages merged by (stamp, producer id, sequence); a virtual
+//    clock; as fast as possible or paced at N x real time. Identical inputs give identical
+//    outputs. One thread, or with island_threads > 1 one engine per island (a set of nodes
+//    no edge leaves) on up to that many threads, each island at most the smallest
+//    Component::CrossIslandDelay() ahead of the others (conservative synchronisation): an
+//    island processes an event at t only when every effect from the others that can reach
+//    it by t has happened, so the outputs are those of the single thread.
 //  - threaded: a thread pool; each component serialized (never runs concurrently with
 //    itself); bounded input queues with their declared drop policy and drop counters.
 #pragma once
@@ -55,6 +59,10 @@ struct RunOptions {
   double rate = 0.0;  // 0: as fast as possible; N: N x real time (overrides the graph's)
   bool use_graph_rate = true;
   int threads = 0;  // 0: the graph's setting
+  // Deterministic executor: islands run on up to this many threads (0 or 1: one thread).
+  // Used when the graph has two or more islands, the run is as fast as possible (rate 0) and
+  // `until` is finite; otherwise the single-threaded engine runs.
+  int island_threads = 0;
   std::string output_dir;
   Time until = Time::Max();                           // stop after this mission time
   const std::atomic<bool>* stop_requested = nullptr;  // e.g. set by a SIGINT handler
