@@ -22,10 +22,14 @@ DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options
     : DeterministicEngine(graph, options, AllNodes(graph), nullptr) {}
 
 DeterministicEngine::DeterministicEngine(Graph& graph, const RunOptions& options,
-                                         std::vector<std::uint32_t> nodes, StatsRecorder* recorder)
+                                         std::vector<std::uint32_t> nodes, StatsRecorder* recorder,
+                                         std::vector<int> engine_of, int self, Forward forward)
     : graph_(graph),
       options_(options),
       nodes_(std::move(nodes)),
+      engine_of_(std::move(engine_of)),
+      self_(self),
+      forward_(std::move(forward)),
       node_now_(graph.nodes.size()),
       next_seq_(graph.nodes.size() + 1, 0),
       source_pending_(graph.nodes.size(), false),
@@ -76,23 +80,46 @@ void DeterministicEngine::Emit(std::uint32_t producer, OutputPort& port, Time st
   if (taps_enabled_) taps_[{producer, port.index()}].push_back(env);
   bool has_normal = false;
   bool has_delayed = false;
+  // Subscribers of other engines, per engine: (engine, phase) pairs, each once.
+  std::vector<std::pair<int, int>> remote;
   for (const Edge* e : graph_.Subscribers(producer, port.index())) {
     const bool delayed = graph_.nodes[e->consumer]->inputs[e->input]->options().delayed;
-    (delayed ? has_delayed : has_normal) = true;
+    if (Mine(e->consumer)) {
+      (delayed ? has_delayed : has_normal) = true;
+    } else {
+      const std::pair<int, int> key{engine_of_[e->consumer], delayed ? 1 : 0};
+      if (std::find(remote.begin(), remote.end(), key) == remote.end()) remote.push_back(key);
+    }
+  }
+  if (!remote.empty()) {
+    // Another engine may already have run up to this engine's event time, never beyond.
+    if (stamp < now_ && error_.empty()) {
+      error_ = graph_.nodes[producer]->id + ": published a message stamped " +
+               std::to_string(stamp.Seconds()) + " s, before its event time " +
+               std::to_string(now_.Seconds()) +
+               " s, to a consumer run on another thread; run on one thread (island_threads 1)";
+    }
+    std::sort(remote.begin(), remote.end());
+    for (const auto& [engine, phase] : remote) forward_(engine, producer, port.index(), phase, env);
   }
   for (int phase = 0; phase < 2; ++phase) {
     if (!(phase == 0 ? has_normal : has_delayed)) continue;
-    Event ev;
-    ev.stamp = stamp;
-    ev.phase = phase;
-    ev.producer = producer;
-    ev.seq = env.seq;
-    ev.order = order_++;
-    ev.kind = Kind::kMessage;
-    ev.output = port.index();
-    ev.envelope = env;
-    queue_.push(std::move(ev));
+    Receive(producer, port.index(), phase, env);
   }
+}
+
+void DeterministicEngine::Receive(std::uint32_t producer, std::size_t output, int phase,
+                                  const Envelope& envelope) {
+  Event ev;
+  ev.stamp = envelope.stamp;
+  ev.phase = phase;
+  ev.producer = producer;
+  ev.seq = envelope.seq;
+  ev.order = order_++;
+  ev.kind = Kind::kMessage;
+  ev.output = output;
+  ev.envelope = envelope;
+  queue_.push(std::move(ev));
 }
 
 void DeterministicEngine::Inject(std::uint32_t node, std::size_t input, Time stamp,
@@ -180,6 +207,7 @@ void DeterministicEngine::Dispatch(Event& ev) {
     deliver(ev.target_node, ev.target_input);
   } else {
     for (const Edge* e : graph_.Subscribers(ev.producer, ev.output)) {
+      if (!Mine(e->consumer)) continue;
       const bool delayed = graph_.nodes[e->consumer]->inputs[e->input]->options().delayed;
       if (delayed == (ev.phase == 1)) deliver(e->consumer, e->input);
     }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <map>
 #include <queue>
 #include <string>
@@ -17,10 +18,19 @@ class DeterministicEngine {
  public:
   // Runs every node of the graph.
   DeterministicEngine(Graph& graph, const RunOptions& options);
-  // Runs only `nodes` (an island: no edge leaves it), recording into `recorder`, which other
-  // engines may share (each node's entry is touched only by its own engine).
+  // A message for subscribers another engine runs: (engine, producer, output, phase,
+  // envelope). Called from this engine's thread.
+  using Forward = std::function<void(int engine, std::uint32_t producer, std::size_t output,
+                                     int phase, const Envelope& envelope)>;
+  // Runs only `nodes`, recording into `recorder`, which other engines may share (each node's
+  // entry is touched only by its own engine). engine_of[node] names the engine running each
+  // node (empty: all are this one's); messages for another engine's nodes go to `forward`
+  // and must not be stamped before the event that publishes them.
   DeterministicEngine(Graph& graph, const RunOptions& options, std::vector<std::uint32_t> nodes,
-                      StatsRecorder* recorder);
+                      StatsRecorder* recorder, std::vector<int> engine_of = {}, int self = 0,
+                      Forward forward = nullptr);
+  // A message another engine forwarded (see Forward), queued as its own engine would.
+  void Receive(std::uint32_t producer, std::size_t output, int phase, const Envelope& envelope);
   ~DeterministicEngine();
   DeterministicEngine(const DeterministicEngine&) = delete;
   DeterministicEngine& operator=(const DeterministicEngine&) = delete;
@@ -91,6 +101,10 @@ class DeterministicEngine {
   Graph& graph_;
   RunOptions options_;
   std::vector<std::uint32_t> nodes_;  // the nodes this engine runs, ascending
+  std::vector<int> engine_of_;        // per node; empty: every node is this engine's
+  int self_ = 0;
+  Forward forward_;
+  bool Mine(std::uint32_t node) const { return engine_of_.empty() || engine_of_[node] == self_; }
   double rate_ = 0.0;
   Time now_{};
   std::vector<Time> node_now_;

@@ -12,9 +12,10 @@ namespace draco::graph::internal {
 // The graph's islands: node sets no edge leaves, each ascending, ordered by their lowest node.
 std::vector<std::vector<std::uint32_t>> Islands(const Graph& graph);
 
-// Runs the graph one engine per island on up to options.island_threads threads, with the
-// outputs of the single-threaded engine; nullopt when that does not apply (one thread asked,
-// a paced run, no finite `until`, fewer than two islands, a zero CrossIslandDelay()).
+// Runs the graph one engine per part (islands.cpp) on up to options.island_threads threads,
+// with the same outputs for any number of threads; nullopt when that does not apply
+// (island_threads 0, a paced run, no finite `until`, fewer than two parts, a zero
+// CrossIslandDelay()).
 std::optional<RunResult> RunIslands(Graph& graph, const RunOptions& options);
 
 }  // namespace draco::graph::internal

@@ -110,6 +110,26 @@ class MailRobot final : public Component {
 };
 DRACO_REGISTER_COMPONENT(MailRobot, "test.MailRobot")
 
+// Passes doubles on stamped lag_s before they arrived (a component that publishes late).
+class Lagger final : public Component {
+ public:
+  void Declare(Spec& spec) override {
+    in_ = spec.Input<double>("in");
+    out_ = spec.Output<double>("out");
+    spec.Param("lag_s", &lag_s_, {.doc = "how much earlier", .min = 0.0});
+  }
+  Status Process(Context& ctx) override {
+    for (auto& m : in_.TakeAll()) out_.PublishAt(ctx.Now() - Time::FromSeconds(lag_s_), *m);
+    return Status::Ok();
+  }
+
+ private:
+  double lag_s_ = 0.5;
+  In<double> in_;
+  Out<double> out_;
+};
+DRACO_REGISTER_COMPONENT(Lagger, "test.Lagger")
+
 // Passes doubles through; one input may be declared delayed (feedback edges).
 class Relay final : public Component {
  public:

@@ -2,11 +2,11 @@
 // contract; they differ in scheduling:
 //  - deterministic: pending messages merged by (stamp, producer id, sequence); a virtual
 //    clock; as fast as possible or paced at N x real time. Identical inputs give identical
-//    outputs. One thread, or with island_threads > 1 one engine per island (a set of nodes
-//    no edge leaves) on up to that many threads, each island at most the smallest
-//    Component::CrossIslandDelay() ahead of the others (conservative synchronisation): an
-//    island processes an event at t only when every effect from the others that can reach
-//    it by t has happened, so the outputs are those of the single thread.
+//    outputs. With island_threads >= 1 the graph runs as parts on up to that many threads
+//    (islands.cpp): islands (node sets no edge leaves) that exchange data only through
+//    components declaring a Component::CrossIslandDelay(), each such island split into the
+//    nodes those components reach and the rest; the outputs do not depend on the number of
+//    threads.
 //  - threaded: a thread pool; each component serialized (never runs concurrently with
 //    itself); bounded input queues with their declared drop policy and drop counters.
 #pragma once
@@ -59,9 +59,9 @@ struct RunOptions {
   double rate = 0.0;  // 0: as fast as possible; N: N x real time (overrides the graph's)
   bool use_graph_rate = true;
   int threads = 0;  // 0: the graph's setting
-  // Deterministic executor: islands run on up to this many threads (0 or 1: one thread).
-  // Used when the graph has two or more islands, the run is as fast as possible (rate 0) and
-  // `until` is finite; otherwise the single-threaded engine runs.
+  // Deterministic executor: 0, one engine for the whole graph; N >= 1, the graph's parts on
+  // up to N threads, when it has two or more, the run is as fast as possible (rate 0) and
+  // `until` is finite (otherwise one engine).
   int island_threads = 0;
   std::string output_dir;
   Time until = Time::Max();                           // stop after this mission time
