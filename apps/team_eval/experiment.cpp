@@ -9,6 +9,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -17,6 +18,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -446,8 +448,11 @@ ExperimentError::ExperimentError(std::vector<graph::Diagnostic> diagnostics)
 
 Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& overrides) {
   if (path.empty()) return Load(nullptr, "", overrides);
+  std::error_code ec;
   std::ifstream in(path);
-  if (!in) throw ExperimentError({{path, 0, 0, "cannot read the experiment file"}});
+  if (!std::filesystem::is_regular_file(path, ec) || !in) {
+    throw ExperimentError({{path, 0, 0, "not a readable file"}});
+  }
   std::stringstream text;
   text << in.rdbuf();
   return LoadExperimentString(text.str(), path, overrides);

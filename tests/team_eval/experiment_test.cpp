@@ -259,6 +259,7 @@ TEST(Experiment, AFileIsNamedInItsErrors) {
   std::ofstream(path) << ExperimentYaml(EveryKey());
   EXPECT_EQ(LoadExperiment(path), EveryKey());
   EXPECT_THROW(LoadExperiment((dir / "missing.yaml").string()), ExperimentError);
+  EXPECT_THROW(LoadExperiment(dir.string()), ExperimentError);  // a folder is not a file
   std::filesystem::remove_all(dir);
 }
 
