@@ -536,7 +536,8 @@ class Page:
                "each robot's view (own trajectory, then the teammates it placed, concatenated "
                "in its frame, one SE(2) alignment), ATE RMSE in metres; the paper's figures for "
                "the same rows in brackets (its USMMA dataset is the marina here; "
-               "docs/back-end.md section 3).", "")
+               "docs/back-end.md section 3). Every experiment key at its default: the run "
+               "folder's `experiment.yaml` holds them.", "")
         for m in MISSIONS:
             rows = read_csv(os.path.join(self.out, m, "team", "table3.csv"))
             self.w(f"### {m}", "")

@@ -17,8 +17,9 @@
 # Per mission: draco-fleet --mode both (the running team, DDS and in-process), draco-eval on
 # both modes (report.md: Table I-IV layouts, Fig. 3 of the running team), draco-local-slam and
 # draco-eval on it (local SLAM alone), draco-frontend-eval (Fig. 3), draco-team-eval on its
-# cached local SLAM (Table III: two-step / full PGO x PCM / GCM), draco-fleet-sizes (Table IV
-# on the cached keyframes); then the Google Benchmarks of docs/benchmarks.md; then
+# cached local SLAM (Table III: two-step / full PGO x PCM / GCM, the default experiment, which
+# its run folder records as experiment.yaml), draco-fleet-sizes (Table IV on the cached
+# keyframes); then the Google Benchmarks of docs/benchmarks.md; then
 # scripts/figures.py composes the page from the run folders' files and, with the default
 # --page, rewrites the headline block of README.md.
 # A failing step is recorded (exit code on the page) and the others still run.

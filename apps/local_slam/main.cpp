@@ -79,6 +79,9 @@ int main(int argc, char** argv) {
                         "slam.prefix=" + name + ".", "truth.file=" + name + ".ground_truth.tum"};
       load.overrides.insert(load.overrides.end(), overrides.begin(), overrides.end());
       auto graph = draco::graph::LoadGraphFile(graph_path, load);
+      // What this robot ran, every parameter resolved.
+      draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/" + name + ".graph.yaml",
+                                               draco::graph::ResolvedYaml(*graph));
       draco::graph::RunOptions run;
       run.output_dir = out_dir;
       run.stop_requested = &g_stop;

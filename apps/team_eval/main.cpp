@@ -1,10 +1,14 @@
-// draco-team-eval MISSION_DIR [--out DIR] [--oracle-matching]: the paper's Table III on a
-// recorded mission. The front end of draco-frontend-eval (components/frontend: local SLAM per
-// robot in-process, object maps, object-graph matching, scan selection, window registration)
-// gives, for each own robot, the candidate inter-robot loops (accepted registrations at the
-// default window and overlap threshold, with every teammate). They are filtered by PCM and by
-// GCM (ConsistencyFilter, propagated covariance, no time budget) and given, with the
-// map-to-map guesses of graph matching (or the oracle's), to TwoStepPgo and FullPgo.
+// draco-team-eval MISSION_DIR [--out DIR] [--experiment FILE] [--exp-set section.key=value]:
+// the paper's Table III on a recorded mission. The front end of draco-frontend-eval
+// (components/frontend: local SLAM per robot in-process, object maps, object-graph matching,
+// scan selection, window registration) gives, for each own robot, the candidate inter-robot
+// loops (accepted registrations at the experiment's window and overlap threshold, with every
+// teammate). They are filtered by PCM and by GCM (ConsistencyFilter, propagated covariance, no
+// time budget) and given, with the map-to-map guesses of graph matching (or the oracle's), to
+// TwoStepPgo and FullPgo. The knobs of this protocol are the experiment (experiment.hpp,
+// config/experiments/*.yaml); the run folder records it resolved as OUT/experiment.yaml, the
+// local-SLAM graph each robot ran as OUT/slam/<robot>.graph.yaml, and the commit and command
+// line in OUT/run_info.json.
 //
 // ATE as the paper: for each robot, its own trajectory then the teammates' in mission order,
 // concatenated, in the own frame, against the ground truth concatenated the same way, one
@@ -13,7 +17,8 @@
 //   OUT/<robot>.{dead_reckoning,trajectory,ground_truth}.tum and
 //   OUT/<robot>.trajectory.{two-step-pcm,two-step-gcm,full-pcm,full-gcm}.tum.
 //
-//   draco-team-eval /tmp/marina --out runs/team-marina --oracle-matching
+//   draco-team-eval /tmp/marina --out runs/team-marina --experiment
+//       config/experiments/oracle-matching.yaml
 #include <CLI/CLI.hpp>
 
 #include <Eigen/LU>
@@ -44,6 +49,7 @@
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
 #include "draco/team/team_pgo.hpp"
+#include "experiment.hpp"
 #include "log_option.hpp"
 #include "run_info.hpp"
 
@@ -163,105 +169,90 @@ int main(int argc, char** argv) {
   std::string mission;
   std::string out_dir;
   fe::SlamRunOptions slam;
-  bool oracle = false;
-  reg::SelectionOptions sel;
-  reg::RegistrationOptions ro;
-  double threshold = ro.min_overlap;
-  int window = 3;
-  double tp_m = 1.5, tp_deg = 15.0;
-  double map_sigma_m = 0.5, map_sigma_deg = 1.0;
-  int min_clique = 5;
-  bool full_local_graph = false;
-  std::string global_anchor = "touched";
-  team::TwoStepOptions two_step;
-  team::FullOptions full_options;
-  double loop_sigma_m = 0.0, loop_sigma_deg = 0.0;
-  bool shared_transforms = true;
-  app.add_option("mission", mission, "recorded mission folder")->required();
+  std::string experiment_path;
+  std::vector<std::string> experiment_sets;
+  bool print_experiment = false;
+  app.add_option("mission", mission, "recorded mission folder");
   app.add_option("--out", out_dir, "output folder (default runs/team-<mission>)");
   app.add_option("--graph", slam.graph_path,
                  "local-SLAM graph YAML (default: graphs/local-slam.yaml)");
   app.add_option("--set", slam.overrides, "local-SLAM graph override component.param=value");
-  app.add_flag("--oracle-matching", oracle,
-               "where matching is not right, use the ground-truth map-to-map transform (and true "
-               "object pairs) for scan selection, registration seeds and the PGO guesses");
   app.add_flag("--reuse", slam.reuse, "reuse the keyframes cached in OUT/slam");
-  app.add_option("--threshold", threshold, "overlap threshold of a candidate loop");
-  app.add_option("--window", window, "registration window");
-  app.add_option("--min-clique", min_clique, "PCM / GCM minimum clique size");
-  app.add_option("--map-sigma-m", map_sigma_m, "map-to-map guess sigma (m) in GCM");
-  app.add_option("--map-sigma-deg", map_sigma_deg, "map-to-map guess sigma (deg) in GCM");
-  app.add_flag("--full-local-graph", full_local_graph,
-               "own graphs = every local-SLAM factor (re-solved without the local robust "
-               "losses); default: the optimised local trajectory as a chain");
-  app.add_option("--global-anchor", global_anchor,
-                 "two-step global step: touched (robust priors on every touched teammate pose, "
-                 "teammate chain deformed), first-loop (rigid, by the first loop), rigid (rigid, "
-                 "least-squares fit of every touched pose)")
-      ->check(CLI::IsMember({"touched", "first-loop", "rigid"}));
-  app.add_flag("--chain-from-factors", two_step.teammate_chain_from_factors,
-               "global step: teammate chain with its own information (default: the reference's "
-               "0.1 m / 0.01 rad)");
-  app.add_option("--loop-sigma-m", loop_sigma_m,
-                 "fixed inter-robot loop sigma (m) in both PGOs (0: the loop's own covariance)");
-  app.add_option("--loop-sigma-deg", loop_sigma_deg, "fixed inter-robot loop sigma (deg)");
-  app.add_flag("--shared-transforms,!--no-shared-transforms", shared_transforms,
-               "a teammate the own matching does not place is placed through the teammates' "
-               "matches, as the running team shares its map-to-map estimates (default on)");
-  double chain_sigma_m = 0.0, chain_sigma_deg = 0.0;
-  app.add_option("--chain-sigma-m", chain_sigma_m,
-                 "PGOs: each robot's local trajectory as a chain with this sigma per keyframe "
-                 "step (0: the local graph's odometry information)");
-  app.add_option("--chain-sigma-deg", chain_sigma_deg, "... and this yaw sigma per step (deg)");
-  std::string pose_covariance = "graph";
-  app.add_option("--pose-covariance", pose_covariance,
-                 "relative-pose covariance in PCM / GCM: graph (marginals of each robot's whole "
-                 "pose graph, its loop closures included) | chain (its odometry as an open chain)")
-      ->check(CLI::IsMember({"graph", "chain"}));
-  bool map_frame_drift = false;
-  app.add_flag("--map-frame-drift", map_frame_drift,
-               "graph covariance: a keyframe's pose in its map frame carries the drift since the "
-               "first keyframe when compared with the map-to-map guess (default: none, the "
-               "guess was fitted to the drifted maps)");
-  fe::OutlierOptions inject;
-  inject.fraction = 0.0;
-  std::string inject_kind = "correlated";
-  app.add_option("--inject", inject.fraction,
-                 "robustness test: add wrong loops to every robot's real candidates, this "
-                 "fraction of the stream (e.g. 0.3, 0.6, 0.9)");
-  app.add_option("--inject-kind", inject_kind,
-                 "random (each loop 2-10 m, +-30 deg off) | correlated (groups sharing one map "
-                 "offset)")
-      ->check(CLI::IsMember({"random", "correlated"}));
-  app.add_option("--inject-group", inject.group_size, "correlated: loops per group");
-  app.add_option("--inject-offset-m", inject.offset_m,
-                 "correlated: offset m (default one pile-bent spacing, 2.4)");
-  app.add_option("--inject-directions", inject.directions,
-                 "correlated: 0 any direction, N one of N evenly spaced (4: +-x, +-y)");
-  app.add_option("--inject-seed", inject.seed, "robustness test: seed");
+  app.add_option("--experiment", experiment_path,
+                 "experiment YAML file, or the name of a shipped one (config/experiments/): the "
+                 "protocol's knobs (--print-experiment lists them); default: every default");
+  app.add_option("--exp-set", experiment_sets,
+                 "experiment override section.key=value, after --experiment (e.g. "
+                 "inject.fraction=0.9)");
+  app.add_flag("--print-experiment", print_experiment,
+               "print the resolved experiment (every key, its value and meaning) and exit");
   app.set_version_flag("--version", draco::app::VersionLine("draco-team-eval"));
   CLI11_PARSE(app, argc, argv);
-  const bool graph_covariance = pose_covariance == "graph";
-  inject.kind = inject_kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
-  if (!(inject.fraction >= 0.0 && inject.fraction < 1.0)) {
-    draco::log::Error("draco-team-eval: --inject " + std::to_string(inject.fraction) +
-                      " is outside [0, 1)");
+
+  draco::team_eval::Experiment experiment;
+  try {
+    // A shipped experiment by name: `--experiment oracle-matching` is
+    // experiments/oracle-matching.yaml on the data search path (config/experiments/).
+    if (!experiment_path.empty() && experiment_path.find('/') == std::string::npos &&
+        !experiment_path.ends_with(".yaml")) {
+      experiment_path =
+          draco::app::ResolveDataFile("experiments/" + experiment_path + ".yaml").path.string();
+    }
+    experiment = draco::team_eval::LoadExperiment(experiment_path, experiment_sets);
+  } catch (const draco::app::DataFileError& e) {
+    draco::log::Error(std::string("draco-team-eval: ") + e.what());
+    return 1;
+  } catch (const draco::team_eval::ExperimentError& e) {
+    draco::log::Error(e.what());
+    return 1;
+  }
+  if (print_experiment) {
+    std::printf("%s", draco::team_eval::ExperimentYaml(experiment).c_str());
+    return 0;
+  }
+  if (mission.empty()) {
+    draco::log::Error("draco-team-eval: the mission folder is required (--help)");
     return 2;
   }
-  ro.min_overlap = 0.0;
-  two_step.anchor = global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
-                    : global_anchor == "first-loop" ? team::GlobalAnchor::kFirstLoop
-                                                    : team::GlobalAnchor::kTouchedPoses;
-  if (loop_sigma_m > 0 || loop_sigma_deg > 0) {
-    if (!(loop_sigma_m > 0 && loop_sigma_deg > 0)) {
-      draco::log::Error("draco-team-eval: --loop-sigma-m and --loop-sigma-deg go together");
-      return 2;
-    }
+
+  // The experiment's knobs as the libraries take them.
+  const bool oracle = experiment.matching.oracle;
+  const bool shared_transforms = experiment.matching.shared_transforms;
+  const double threshold = experiment.candidates.min_overlap;
+  const int window = experiment.candidates.window;
+  const int min_clique = experiment.filter.min_clique_size;
+  const double map_sigma_m = experiment.filter.map_sigma_m;
+  const double map_sigma_deg = experiment.filter.map_sigma_deg;
+  const bool graph_covariance = experiment.filter.pose_covariance == "graph";
+  const bool map_frame_drift = experiment.filter.map_frame_drift;
+  const bool full_local_graph = experiment.optimizer.local_graph == "full";
+  const double chain_sigma_m = experiment.optimizer.local_chain_sigma_xy_m;  // 0: from the graph
+  const double chain_sigma_deg = experiment.optimizer.local_chain_sigma_yaw_deg;
+  const auto& opt = experiment.optimizer;
+  team::TwoStepOptions two_step;
+  team::FullOptions full_options;
+  two_step.anchor = opt.global_anchor == "rigid"        ? team::GlobalAnchor::kRigid
+                    : opt.global_anchor == "first_loop" ? team::GlobalAnchor::kFirstLoop
+                                                        : team::GlobalAnchor::kTouchedPoses;
+  two_step.teammate_chain_from_factors = opt.chain_from_factors;
+  if (opt.loop_sigma_xy_m > 0) {  // and the yaw sigma (LoadExperiment checks)
     two_step.loop_information_from_covariance = full_options.loop_information_from_covariance =
         false;
-    two_step.loop_sigma_xy_m = full_options.loop_sigma_xy_m = loop_sigma_m;
-    two_step.loop_sigma_yaw_rad = full_options.loop_sigma_yaw_rad = loop_sigma_deg * kDeg;
-  }  // the threshold is applied below
+    two_step.loop_sigma_xy_m = full_options.loop_sigma_xy_m = opt.loop_sigma_xy_m;
+    two_step.loop_sigma_yaw_rad = full_options.loop_sigma_yaw_rad = opt.loop_sigma_yaw_deg * kDeg;
+  }
+  fe::OutlierOptions inject;
+  inject.fraction = experiment.inject.fraction;
+  inject.kind =
+      experiment.inject.kind == "random" ? fe::OutlierKind::kRandom : fe::OutlierKind::kCorrelated;
+  inject.group_size = experiment.inject.group_size;
+  inject.offset_m = experiment.inject.offset_m;
+  inject.directions = experiment.inject.directions;
+  inject.seed = experiment.inject.seed;
+  reg::SelectionOptions sel;
+  reg::RegistrationOptions ro;
+  ro.min_overlap = 0.0;  // the threshold is applied below
+  const double tp_m = 1.5, tp_deg = 15.0;
 
   try {
     const auto info = draco::recording::LoadMissionInfo(mission);
@@ -270,7 +261,11 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(out_dir);
     auto run_info = draco::app::MakeRunInfo("draco-team-eval", argc, argv);
     run_info.AddFile("graph", slam.graph_path);
+    if (!experiment_path.empty()) run_info.AddFile("experiment", experiment_path);
     draco::app::WriteRunInfo(out_dir, run_info);
+    // What runs, every key resolved: --experiment OUT/experiment.yaml runs it again.
+    draco::graph::WriteFileAtomicallyOrThrow(out_dir + "/experiment.yaml",
+                                             draco::team_eval::ExperimentYaml(experiment));
     const bool airplane = info.world.find("airplane") != std::string::npos ||
                           info.name.find("airplane") != std::string::npos;
     if (airplane) {
@@ -571,7 +566,7 @@ int main(int argc, char** argv) {
     std::printf("\ninter-robot loops (accepted / true positives):\n%s", loops_csv.c_str());
     if (inject.fraction > 0.0) {
       std::printf("injected: %s outliers, %.0f %% of each robot's stream (seed %llu)\n",
-                  inject_kind.c_str(), 100.0 * inject.fraction,
+                  experiment.inject.kind.c_str(), 100.0 * inject.fraction,
                   static_cast<unsigned long long>(inject.seed));
     }
     for (int m = 0; m < 2; ++m) {

@@ -1,6 +1,7 @@
 // Graph loading (graph.hpp): the YAML documents with their includes, the graph settings, the
-// components and their input bindings; LoadGraphFile and LoadGraphString. Parameters are set in
-// graph_params.cpp, the graph is connected and checked in graph_validate.cpp.
+// components and their input bindings; LoadGraphFile, LoadGraphString and ExpectedOneOf.
+// Parameters are set in graph_params.cpp, the graph is connected and checked in
+// graph_validate.cpp.
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -15,10 +16,7 @@
 #include "graph_loader.hpp"
 
 namespace draco::graph {
-namespace detail {
 namespace {
-
-constexpr int kSchemaVersion = 1;
 
 std::size_t EditDistance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
@@ -36,8 +34,7 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
 
 }  // namespace
 
-// "expected one of: a, b, c (did you mean 'b'?)"
-std::string Expected(const std::vector<std::string>& allowed, const std::string& got) {
+std::string ExpectedOneOf(const std::vector<std::string>& allowed, const std::string& got) {
   if (allowed.empty()) return "it declares none";
   std::string out = "expected one of: ";
   std::string best;
@@ -55,7 +52,10 @@ std::string Expected(const std::vector<std::string>& allowed, const std::string&
   return out;
 }
 
+namespace detail {
 namespace {
+
+constexpr int kSchemaVersion = 1;
 
 bool ValidId(const std::string& id) {
   if (id.empty() || !(std::isalpha(static_cast<unsigned char>(id[0])) || id[0] == '_')) {

@@ -20,8 +20,10 @@
 
 namespace draco::graph::detail {
 
-// "expected one of: a, b, c (did you mean 'b'?)" (graph_load.cpp)
-std::string Expected(const std::vector<std::string>& allowed, const std::string& got);
+// "expected one of: a, b, c (did you mean 'b'?)" (graph.hpp ExpectedOneOf)
+inline std::string Expected(const std::vector<std::string>& allowed, const std::string& got) {
+  return ExpectedOneOf(allowed, got);
+}
 
 struct RawComponent {
   std::string file;

@@ -9,6 +9,8 @@
 # 2. draco-sim simulates a shipped mission (cut to 20 s, 3 robots);
 # 3. draco-local-slam replays it with graphs/local-slam.yaml found in <prefix>/share/draco-slam
 #    (run_info.json names it, with the version --version prints); trajectories parse;
+# 3c. draco-team-eval runs a shipped experiment by name (experiments/oracle-matching.yaml in
+#    the share folder) and records it, resolved, in its run folder;
 # 4. draco run runs the default graph from the share folder;
 # 5. draco-fleet --mode dds starts the draco-robot next to it in <prefix>/bin, both on the
 #    loopback profile from the share folder;
@@ -59,7 +61,8 @@ for app in draco draco-robot draco-fleet draco-sim draco-eval draco-local-slam d
 done
 for f in graphs/robot.yaml graphs/local-slam.yaml graphs/local-slam-core.yaml \
   graphs/default.yaml missions/airplane.yaml worlds/airplane.yaml generator/harbour.yaml \
-  dds/loopback.xml dds/lan.xml dds/unicast.xml dds/acoustic.xml; do
+  dds/loopback.xml dds/lan.xml dds/unicast.xml dds/acoustic.xml \
+  experiments/oracle-matching.yaml; do
   [ -f "$share/$f" ] || fail "share/draco-slam/$f not installed"
 done
 
@@ -99,6 +102,19 @@ PY
 out=$(DRACO_MISSION=m DRACO_ROBOT=zulu DRACO_LOG_LEVEL=warn "$bin/draco-robot" 2>&1) &&
   fail "draco-robot accepted robot zulu"
 echo "$out" | grep -q "has no robot 'zulu'" || fail "DRACO_MISSION/DRACO_ROBOT not read: $out"
+
+# 3c. A shipped experiment by name.
+"$bin/draco-team-eval" m --out t --experiment oracle-matching >t.log 2>&1 ||
+  { cat t.log; fail "draco-team-eval --experiment oracle-matching"; }
+grep -q '^  oracle: true$' t/experiment.yaml || fail "t/experiment.yaml: oracle is not on"
+[ -s t/slam/alpha.graph.yaml ] || fail "t/slam/alpha.graph.yaml missing"
+python3 - t "$share" <<'PY' || fail "draco-team-eval run_info.json"
+import json, os, sys
+out, share = sys.argv[1:]
+files = json.load(open(os.path.join(out, "run_info.json")))["files"]
+assert files["experiment"] == os.path.join(share, "experiments/oracle-matching.yaml"), files
+assert files["graph"] == os.path.join(share, "graphs/local-slam.yaml"), files
+PY
 
 # 4. The default graph from the share folder.
 "$bin/draco" run --rate 0 --until 2 --out d >d.log 2>&1 || { cat d.log; fail "draco run"; }

@@ -80,8 +80,13 @@ std::vector<reg::KeyframeScan> RunLocalSlam(const std::string& mission, const st
   load.overrides = {"reader.recording=" + mission, "reader.robot=" + name,
                     "slam.prefix=" + name + ".", "truth.file=" + name + ".ground_truth.tum"};
   load.overrides.insert(load.overrides.end(), overrides.begin(), overrides.end());
-  auto g = graph::LoadGraphString(yaml, graph_path, load,
-                                  std::filesystem::path(graph_path).parent_path().string());
+  const std::string base_dir = std::filesystem::path(graph_path).parent_path().string();
+  auto g = graph::LoadGraphString(yaml, graph_path, load, base_dir);
+  // What this robot ran, every parameter resolved, but for the capture sink of this app:
+  // `draco run` of it writes the same local-SLAM files.
+  graph::WriteFileAtomicallyOrThrow(
+      run_dir + "/" + name + ".graph.yaml",
+      graph::ResolvedYaml(*graph::LoadGraphString(text.str(), graph_path, load, base_dir)));
   graph::RunOptions run;
   run.output_dir = run_dir;
   run.log_errors = false;

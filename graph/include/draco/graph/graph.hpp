@@ -21,6 +21,11 @@ struct Diagnostic {
   std::string ToString() const;  // "file:line:column: error: message"
 };
 
+// "expected one of: a, b, c (did you mean 'b'?)": the end of a diagnostic about a name that is
+// not among the allowed ones (graph keys, component types, ports, parameters; apps reading
+// their own YAML use it too).
+std::string ExpectedOneOf(const std::vector<std::string>& allowed, const std::string& got);
+
 // Thrown when a graph cannot be loaded; carries every problem found, not only the first.
 class GraphError : public std::runtime_error {
  public:

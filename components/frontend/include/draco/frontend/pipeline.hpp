@@ -65,9 +65,11 @@ msgs::ObjectMap BuildObjectMap(const Robot& r, const objects::ObjectMapperOption
 void AppendLandmarks(const Robot& r, int last_keyframe, int min_sightings, msgs::ObjectMap* map);
 
 // Local SLAM of every robot of the mission (graph outputs in out_dir/slam: trajectory,
-// dead reckoning, pose_graph.g2o, ... per robot), then truth at the keyframes, the map-to-world
-// alignment and the object map from the final keyframes. Returns the robots in mission order;
-// *wall_s is the local-SLAM wall time.
+// dead reckoning, pose_graph.g2o, ... per robot, and the graph it ran, every parameter
+// resolved, as <robot>.graph.yaml), then truth at the keyframes, the map-to-world alignment and
+// the object map from the final keyframes. With options.reuse a robot whose keyframe cache is
+// there is not run again (its files are those of the run that made the cache). Returns the
+// robots in mission order; *wall_s is the local-SLAM wall time.
 std::vector<Robot> RunRobots(const std::string& mission, const recording::MissionInfo& info,
                              const std::string& out_dir, const SlamRunOptions& options,
                              double* wall_s = nullptr);
