@@ -78,7 +78,8 @@ struct Options {
   double restart_after_s = -1.0;       // wall seconds after the kill; < 0: never
   double timeout_s = 3600.0;
   double rate = 0.0;  // dds: pace the daemons at N x real time (0: lock-step only)
-  int threads = 0;    // inproc: robots on up to this many threads (0: the cores, at most 4)
+  int threads = 0;    // inproc: robots on up to this many threads (0: the cores, at most 4);
+                      // dds: each daemon's --threads (0: the daemon's default)
 };
 
 // A mode's folder (<out>/inproc, <out>/dds) holds one run. An earlier run's files there are
@@ -191,6 +192,7 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
     // No --dds-config: the daemons read the same $CYCLONEDDS_URI.
     if (!o.dds_config.empty()) a.insert(a.end(), {"--dds-config", o.dds_config});
     if (o.domain >= 0) a.insert(a.end(), {"--domain", std::to_string(o.domain)});
+    if (o.threads > 0) a.insert(a.end(), {"--threads", std::to_string(o.threads)});
     for (const auto& x : o.overrides) {
       a.push_back("--set");
       a.push_back(x);
@@ -323,8 +325,9 @@ int main(int argc, char** argv) {
                  "dds: pace the daemons at N x real time (0: as fast as lock-step allows)");
   app.add_option("--timeout-s", o.timeout_s, "dds: stop the daemons after this many seconds");
   app.add_option("--threads", o.threads,
-                 "inproc: run the robots on up to this many threads, with the outputs of one "
-                 "(default 0: the machine's cores, at most 4; 1: one thread)")
+                 "inproc: run the robots on up to this many threads, the same outputs for any "
+                 "number (default 0: the machine's cores, at most 4); dds: each daemon's "
+                 "--threads (default: theirs)")
       ->check(CLI::Range(0, 64));
   app.set_version_flag("--version", draco::app::VersionLine("draco-fleet"));
   CLI11_PARSE(app, argc, argv);

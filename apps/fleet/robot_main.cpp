@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   std::string out_dir;
   std::vector<std::string> overrides;
   double rate = 0.0;
+  int threads = 2;
   bool no_lockstep = false;
   bool quiet = false;
   // The DRACO_* variables stand in for options not given (systemd's environment file,
@@ -92,6 +93,10 @@ int main(int argc, char** argv) {
   app.add_option("--set", overrides, "override a parameter: component_id.param=value");
   app.add_option("--rate", rate, "pace the replay at N x real time (0: lock-step only)");
   app.add_flag("--no-lockstep", no_lockstep, "do not wait for teammates' mission clocks");
+  app.add_option("--threads", threads,
+                 "replays: run the local SLAM and the team stages on up to this many threads "
+                 "(default 2; 0: one engine, one thread)")
+      ->check(CLI::Range(0, 64));
   app.add_flag("--quiet", quiet, "no progress lines");
   app.set_version_flag("--version", draco::app::VersionLine("draco-robot"));
   CLI11_PARSE(app, argc, argv);
@@ -167,6 +172,7 @@ int main(int argc, char** argv) {
     draco::graph::RunOptions run;
     run.output_dir = out_dir;
     run.stop_requested = &g_stop;
+    run.island_threads = threads;
     // Every daemon of the team runs to the end of the longest replay (a robot whose recording
     // ended keeps its link and agent going), as the in-process team does.
     // (A bag's length is not known beforehand: the run ends with the bag.)
