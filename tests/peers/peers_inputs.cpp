@@ -312,8 +312,9 @@ int main(int argc, char** argv) {
       obj::MatcherOptions sparse = mo;
       sparse.min_shape_similarity = obj::MatcherOptions{}.min_shape_similarity;
       sparse.min_affinity = obj::MatcherOptions{}.min_affinity;
-      for (const auto& [item, options] :
+      for (const auto& [item, variant] :
            {std::pair<std::string, obj::MatcherOptions>{"match", mo}, {"match_sparse", sparse}}) {
+        const obj::MatcherOptions& options = variant;  // a lambda cannot capture a binding
         std::vector<draco::msgs::ObjectMatch> matches(pairs.size());
         const double ms = BestMs(repeats, [&] {
           for (std::size_t i = 0; i < pairs.size(); ++i) {
