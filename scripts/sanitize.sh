@@ -84,9 +84,10 @@ if [ "$kind" = asan ]; then
   fi
 else
   sanitize=thread
-  # graph_test, middleware_test, fleet_link_test, recording_test and what tests/fleet_app runs.
-  targets=(graph_test middleware_test fleet_link_test recording_test draco-sim draco-fleet
-    draco-robot ros2_listener)
+  # graph_test, middleware_test, fleet_link_test, recording_test, sim_live_test and what
+  # tests/fleet_app runs.
+  targets=(graph_test middleware_test fleet_link_test recording_test sim_live_test draco-sim
+    draco-fleet draco-robot ros2_listener)
 fi
 
 if [ -f "$build_dir/CMakeCache.txt" ]; then

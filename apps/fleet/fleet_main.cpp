@@ -5,12 +5,17 @@
 //   --mode inproc  every robot in one process over the in-process bus (deterministic replay)
 //   --mode both    (default) both, then compares them: accepted inter-robot loops and team
 //                  ATE must agree within 10 %
+//   --simulate M  (in-process only) no recording: every robot's sensors simulated from the
+//                  mission YAML M while the team runs (sim.LiveRobot, graphs/robot-live.yaml);
+//                  OUT/mission holds the mission's navigation and ground truth only
+//                  (draco-sim --no-sonar), which the evaluation reads as from a recording
 // Prints per robot: ATE (dead reckoning, local, team with the paper's concatenation), loops,
 // traffic; and per message kind: mean and max bits. Writes OUT/<mode>/ (every robot's
 // outputs) and OUT/fleet_report.md.
 //
 //   draco-fleet /tmp/marina --out runs/fleet-marina
 //   draco-fleet /tmp/marina --mode dds --kill bravo --kill-after-s 20 --restart-after-s 2
+//   draco-fleet --simulate config/missions/marina.yaml --mode inproc
 #include <CLI/CLI.hpp>
 
 #include <fcntl.h>
@@ -20,6 +25,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -67,7 +73,9 @@ extern "C" void OnSignal(int) { g_stop = true; }
 }
 
 struct Options {
-  std::string mission;
+  std::string mission;      // the recorded mission (with --simulate: OUT/mission, no pings)
+  std::string simulate;     // a mission YAML simulated live (in-process only)
+  double duration_s = 0.0;  // --simulate: cap of each robot's duration (0: the mission's)
   std::string out;
   std::string graph;       // default: graphs/robot.yaml from the data search path
   std::string dds_config;  // --dds-config as given; then the file chosen ("": $CYCLONEDDS_URI)
@@ -119,6 +127,8 @@ int RunInProcess(const Options& o, const draco::recording::MissionInfo& info,
   for (std::size_t i = 0; i < team.size(); ++i) {
     RobotSetup s;
     s.mission_dir = o.mission;
+    s.simulate = o.simulate;
+    s.simulate_duration_s = o.duration_s;
     s.team = team;
     s.robot_id = static_cast<int>(i);
     s.world = info.world;
@@ -298,6 +308,28 @@ int RunDds(const Options& o, const std::vector<std::string>& team, const std::st
   return worst;
 }
 
+// --simulate: the mission's navigation and ground truth, no pings, as a recorded mission in
+// dir (draco-sim --no-sonar: seconds), for the mission length and the evaluation. The robots'
+// sensors come from sim.LiveRobot in the graph, which simulates the same records.
+void WriteNavigationOnly(const Options& o, const std::string& dir) {
+  const auto sim = draco::fleet_app::SiblingApp("draco-sim", "sim").string();
+  if (!fs::exists(sim)) throw std::runtime_error(sim + " not found (build the draco-sim target)");
+  std::vector<std::string> args = {sim, o.simulate, "--out", dir, "--no-sonar", "--no-pictures"};
+  if (o.duration_s > 0.0) {
+    char text[40];
+    const auto end = std::to_chars(text, text + sizeof(text), o.duration_s).ptr;  // round trip
+    args.insert(args.end(), {"--duration-s", std::string(text, end)});
+  }
+  const std::string log = o.out + "/sim.log";
+  std::error_code ec;
+  fs::remove(log, ec);
+  Status("draco-fleet: navigation and ground truth of %s into %s (no pings)\n", o.simulate.c_str(),
+         dir.c_str());
+  if (draco::fleet_app::RunAndWait(args, log) != 0) {
+    throw std::runtime_error("draco-sim --no-sonar failed (" + log + ")");
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -305,11 +337,21 @@ int main(int argc, char** argv) {
   draco::app::AddLogLevelOption(app);
   Options o;
   std::string mode = "both";
-  app.add_option("mission", o.mission, "recorded mission folder")->required();
-  app.add_option("--out", o.out, "output folder (default runs/fleet-<mission>)");
-  app.add_option("--mode", mode, "dds, inproc or both")
-      ->check(CLI::IsMember({"dds", "inproc", "both"}));
-  app.add_option("--graph", o.graph, "robot graph YAML (default: graphs/robot.yaml)");
+  app.add_option("mission", o.mission, "recorded mission folder");
+  app.add_option("--simulate", o.simulate,
+                 "a mission YAML to simulate while the team runs, instead of a recorded mission "
+                 "(in-process only; nothing of the pings on disk)");
+  app.add_option("--duration-s", o.duration_s,
+                 "--simulate: cap each robot's duration, as draco-sim --duration-s")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--out", o.out,
+                 "output folder (default runs/fleet-<mission>; --simulate: "
+                 "runs/fleet-<mission file name>-live)");
+  auto* mode_opt = app.add_option("--mode", mode, "dds, inproc or both (--simulate: inproc)")
+                       ->check(CLI::IsMember({"dds", "inproc", "both"}));
+  app.add_option("--graph", o.graph,
+                 "robot graph YAML (default: graphs/robot.yaml; --simulate: "
+                 "graphs/robot-live.yaml)");
   app.add_option("--domain", o.domain,
                  "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
       ->check(CLI::Range(0, 230));
@@ -334,7 +376,28 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
 
+  if (o.mission.empty() == o.simulate.empty()) {
+    draco::log::Error("draco-fleet: give a recorded mission folder or --simulate MISSION.yaml");
+    return 2;
+  }
+  if (!o.simulate.empty()) {
+    if (mode_opt->count() > 0 && mode != "inproc") {
+      draco::log::Error("draco-fleet: --simulate runs the team in-process only (--mode inproc)");
+      return 2;
+    }
+    mode = "inproc";
+  } else if (o.duration_s > 0.0) {
+    draco::log::Error("draco-fleet: --duration-s goes with --simulate");
+    return 2;
+  }
+
   try {
+    if (!o.simulate.empty()) {
+      if (o.out.empty()) o.out = "runs/fleet-" + fs::path(o.simulate).stem().string() + "-live";
+      fs::create_directories(o.out);
+      o.mission = o.out + "/mission";
+      WriteNavigationOnly(o, o.mission);
+    }
     const auto info = draco::recording::LoadMissionInfo(o.mission);
     std::vector<std::string> team;
     for (const auto& r : info.robots) team.push_back(r.name);
@@ -343,7 +406,9 @@ int main(int argc, char** argv) {
       return 1;
     }
     if (o.out.empty()) o.out = "runs/fleet-" + info.name;
-    o.graph = draco::app::ResolveDataFile("graphs/robot.yaml", o.graph).path;
+    o.graph = draco::app::ResolveDataFile(
+                  o.simulate.empty() ? "graphs/robot.yaml" : "graphs/robot-live.yaml", o.graph)
+                  .path;
     if (mode != "inproc") {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(o.dds_config);
       o.dds_config = dds.file;
@@ -352,10 +417,15 @@ int main(int argc, char** argv) {
     fs::create_directories(o.out);
     auto run_info = draco::app::MakeRunInfo("draco-fleet", argc, argv);
     run_info.AddFile("graph", o.graph);
+    if (!o.simulate.empty()) run_info.AddFile("mission", o.simulate);
     if (mode != "inproc" && !o.dds_config.empty()) run_info.AddFile("dds_config", o.dds_config);
     draco::app::WriteRunInfo(o.out, run_info);
     std::string report =
-        "# Fleet run: " + info.name + "\n\nMission `" + o.mission + "`, graph `" + o.graph + "`.\n";
+        "# Fleet run: " + info.name + "\n\n" +
+        (o.simulate.empty() ? "Mission `" + o.mission + "`"
+                            : "Mission `" + o.simulate + "` simulated while the team ran (`" +
+                                  o.mission + "`: its navigation and ground truth)") +
+        ", graph `" + o.graph + "`.\n";
     std::map<std::string, draco::report::TeamResult> results;
     int rc = 0;
     for (const std::string m : {"inproc", "dds"}) {

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <numbers>
@@ -17,6 +18,13 @@ std::string List(const std::vector<std::string>& items) {
   std::string s = "[";
   for (std::size_t i = 0; i < items.size(); ++i) s += (i ? ", " : "") + items[i];
   return s + "]";
+}
+
+// The shortest text that reads back as the same double (the value draco-sim was given).
+std::string Shortest(double v) {
+  char buffer[40];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
 }
 
 bool Airplane(const std::string& world) { return world.find("airplane") != std::string::npos; }
@@ -51,7 +59,12 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
   std::vector<std::string> ids;
   for (std::size_t i = 0; i < s.team.size(); ++i) ids.push_back(std::to_string(i));
   std::vector<std::string> o;
-  if (s.bag.empty()) {
+  if (!s.simulate.empty()) {
+    o = {p + "reader.mission=" + s.simulate, p + "reader.robot=" + name};
+    if (s.simulate_duration_s > 0.0) {
+      o.push_back(p + "reader.duration_s=" + Shortest(s.simulate_duration_s));
+    }
+  } else if (s.bag.empty()) {
     o = {p + "reader.recording=" + s.mission_dir, p + "reader.robot=" + name};
   } else {
     o = {p + "reader.bag=" + s.bag};

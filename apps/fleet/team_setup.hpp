@@ -10,9 +10,11 @@
 namespace draco::fleet_app {
 
 struct RobotSetup {
-  std::string mission_dir;        // a recorded mission, or
-  std::string bag;                // a ROS 1 bag (then team comes from the command line)
-  std::vector<std::string> team;  // robot names in mission order; the id is the position
+  std::string mission_dir;           // a recorded mission, or
+  std::string bag;                   // a ROS 1 bag (then team comes from the command line), or
+  std::string simulate;              // a mission YAML simulated live (graph robot-live.yaml)
+  double simulate_duration_s = 0.0;  // > 0: cap of each robot's duration (draco-sim --duration-s)
+  std::vector<std::string> team;     // robot names in mission order; the id is the position
   int robot_id = 0;
   std::string world;              // the mission's world (selection radius on the airplane)
   std::string transport = "dds";  // or "inproc"

@@ -161,18 +161,21 @@ RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robo
         sink.OnDepth(nav.Depth(truth));
         break;
       case kSonar: {
-        if (sonar == nullptr) break;
-        const auto id = static_cast<std::uint32_t>(next[kSonar]);
-        const msgs::SonarPing ping =
-            sonar->Render(SonarPoseAt(truth, mission.sonar_tilt_rad), t, id,
-                          DeriveSeed(mission.seed, robot_key, std::uint64_t{id} + 1));
-        sink.OnPing(ping, truth);
-        if (time_of(kGroundTruth) != t) sink.OnGroundTruth(TruthPose(truth));
-        ++stats.pings;
-        if (progress != nullptr) {
-          progress->pings_done = stats.pings;
-          progress->mission_time_s = t - t0;
+        // Without sonar the ground truth at the ping times is still emitted: the navigation
+        // and ground truth do not depend on whether pings are rendered.
+        if (sonar != nullptr) {
+          const auto id = static_cast<std::uint32_t>(next[kSonar]);
+          const msgs::SonarPing ping =
+              sonar->Render(SonarPoseAt(truth, mission.sonar_tilt_rad), t, id,
+                            DeriveSeed(mission.seed, robot_key, std::uint64_t{id} + 1));
+          sink.OnPing(ping, truth);
+          ++stats.pings;
+          if (progress != nullptr) {
+            progress->pings_done = stats.pings;
+            progress->mission_time_s = t - t0;
+          }
         }
+        if (time_of(kGroundTruth) != t) sink.OnGroundTruth(TruthPose(truth));
         break;
       }
       case kGroundTruth:
@@ -186,6 +189,21 @@ RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robo
   stats.distance_m = traj.Length();
   stats.duration_s = t_end - t0;
   return stats;
+}
+
+double LastAhrsTimeS(const Mission& mission, int robot_index) {
+  const RobotSpec& robot = mission.robots.at(static_cast<std::size_t>(robot_index));
+  const Trajectory traj = GenerateTrajectory(robot, mission.vehicle, mission.duration_s);
+  const double t0 = traj.StartTime();
+  const double t_end = traj.EndTime();
+  const double rate = mission.navigation.ahrs.rate_hz;
+  if (!(rate > 0.0)) return 0.0;
+  // The sample times as SimulateRobot computes them: t0 + n / rate while <= t_end + 1e-9.
+  auto time_of = [&](std::uint64_t n) { return t0 + static_cast<double>(n) / rate; };
+  auto n = static_cast<std::uint64_t>(std::max(0.0, std::floor((t_end - t0) * rate)));
+  while (time_of(n + 1) <= t_end + 1e-9) ++n;
+  while (n > 0 && time_of(n) > t_end + 1e-9) --n;
+  return time_of(n);
 }
 
 void DeadReckoning::AddAhrs(const msgs::Ahrs& ahrs) {

@@ -75,10 +75,15 @@ struct RobotProgress {
 // Simulates robot `robot_index` of the mission. Streams are emitted in time order (ties:
 // AHRS, DVL, depth, sonar, ground truth). Ground truth comes at ground_truth_rate_hz and at
 // every ping time. Deterministic in (mission.seed, robot_index). With sonar == nullptr no
-// pings are rendered (navigation and ground truth only, fast).
+// pings are rendered (navigation and ground truth only, fast; the same navigation and ground
+// truth as with pings). An exception thrown by the sink leaves the simulation.
 RobotRunStats SimulateRobot(const World& world, const Mission& mission, int robot_index,
                             const SonarModel* sonar, RobotSink& sink,
                             RobotProgress* progress = nullptr);
+
+// Time of the robot's last AHRS sample (the last record SimulateRobot emits on that stream;
+// a recording's replay length, recording::RobotReplayLengthS). Generates the trajectory only.
+double LastAhrsTimeS(const Mission& mission, int robot_index);
 
 // The reference dead reckoning (DVL + AHRS yaw relative to its first reading, trapezoidal
 // velocity at the DVL rate), in the robot's start frame.
