@@ -48,6 +48,7 @@
 #include "draco/objects/object_mapper.hpp"
 #include "draco/recording/recording.hpp"
 #include "draco/registration/registration.hpp"
+#include "sequential_pairs.hpp"
 
 namespace {
 
@@ -343,35 +344,7 @@ int main(int argc, char** argv) {
     // (d) Sequential ICP pairs (registration_backends_bench's set).
     {
       fs::create_directories(out / "icp");
-      struct SeqPair {
-        icp::Cloud2 source, target;
-        Pose2 seed, truth;
-      };
-      std::vector<SeqPair> seq;
-      for (const auto& r : robots) {
-        const auto dr = draco::eval::ReadTum(out_dir + "/slam/" + r.name + ".dead_reckoning.tum");
-        if (dr.size() != r.kfs.size()) {
-          throw std::runtime_error(r.name + ": dead reckoning rows do not match the keyframes");
-        }
-        for (std::size_t k = 1; k < r.kfs.size(); ++k) {
-          if (!r.has_truth[k] || !r.has_truth[k - 1]) continue;
-          SeqPair p;
-          p.source = icp::ToCloud(r.kfs[k].points_kf);
-          for (std::size_t j = k >= 3 ? k - 3 : 0; j < k; ++j) {
-            if (!r.has_truth[j]) continue;
-            const Pose2 T = reg::Between(r.truth_kf[k - 1], r.truth_kf[j]);
-            for (const auto& q : r.kfs[j].points_kf) {
-              const auto w = reg::Apply(T, q);
-              p.target.emplace_back(w.x_m, w.y_m);
-            }
-          }
-          if (p.source.size() < 50 || p.target.size() < 50) continue;
-          p.seed = reg::Between(Pose2{dr[k - 1].x_m, dr[k - 1].y_m, dr[k - 1].yaw_rad},
-                                Pose2{dr[k].x_m, dr[k].y_m, dr[k].yaw_rad});
-          p.truth = reg::Between(r.truth_kf[k - 1], r.truth_kf[k]);
-          seq.push_back(std::move(p));
-        }
-      }
+      const auto seq = draco::test::SequentialPairs(robots, out_dir);
       const icp::IcpOptions io;  // draco's defaults
       {
         File f(out / "icp" / "params.csv");
