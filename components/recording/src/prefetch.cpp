@@ -1,60 +1,39 @@
 // PrefetchingReader: a RobotReader read ahead on a thread of its own (recording.hpp).
-#include <condition_variable>
-#include <deque>
 #include <exception>
-#include <mutex>
 #include <thread>
 #include <utility>
 
+#include "draco/msgs/bounded_queue.hpp"
 #include "draco/recording/recording.hpp"
 
 namespace draco::recording {
 
 struct PrefetchingReader::Impl {
-  Impl(RobotReader r, std::size_t d)
-      : reader(std::move(r)),
-        depth(d < 1 ? 1 : d),
-        mission(reader.Mission()),
-        robot(reader.Robot()) {}
+  Impl(RobotReader r, std::size_t depth)
+      : reader(std::move(r)), queue(depth), mission(reader.Mission()), robot(reader.Robot()) {}
 
+  // Only this thread touches the reader once it runs.
   void Run() {
     while (true) {
-      {
-        std::unique_lock<std::mutex> lock(mutex);
-        room.wait(lock, [&] { return stop || records.size() < depth; });
-        if (stop) return;
-      }
-      // Reading happens outside the lock: only this thread touches the reader.
       std::optional<Record> record;
-      std::exception_ptr failure;
       try {
         record = reader.Next();
       } catch (...) {
-        failure = std::current_exception();
-      }
-      std::lock_guard<std::mutex> lock(mutex);
-      if (failure || !record) {
-        error = failure;
-        done = true;
-        ready.notify_all();
+        queue.Finish(std::current_exception());
         return;
       }
-      records.push_back(std::move(*record));
-      ready.notify_all();
+      if (!record) {
+        queue.Finish();
+        return;
+      }
+      if (!queue.Push(std::move(*record))) return;  // closed: the reader is going away
     }
   }
 
   RobotReader reader;
-  const std::size_t depth;
+  msgs::BoundedQueue<Record> queue;
   const MissionInfo mission;  // copies: the thread never shares the reader's
   const RobotInfo robot;
-  std::mutex mutex;
-  std::condition_variable ready;  // a record, the end or an error is there
-  std::condition_variable room;   // the queue has room, or stop
-  std::deque<Record> records;
-  bool done = false;
-  bool stop = false;
-  std::exception_ptr error;
   std::thread thread;
 };
 
@@ -64,27 +43,11 @@ PrefetchingReader::PrefetchingReader(RobotReader reader, std::size_t depth)
 }
 
 PrefetchingReader::~PrefetchingReader() {
-  {
-    std::lock_guard<std::mutex> lock(impl_->mutex);
-    impl_->stop = true;
-  }
-  impl_->room.notify_all();
+  impl_->queue.Close();
   if (impl_->thread.joinable()) impl_->thread.join();
 }
 
-std::optional<Record> PrefetchingReader::Next() {
-  std::unique_lock<std::mutex> lock(impl_->mutex);
-  impl_->ready.wait(lock, [&] { return !impl_->records.empty() || impl_->done; });
-  if (!impl_->records.empty()) {
-    Record record = std::move(impl_->records.front());
-    impl_->records.pop_front();
-    lock.unlock();
-    impl_->room.notify_one();
-    return record;
-  }
-  if (impl_->error) std::rethrow_exception(impl_->error);
-  return std::nullopt;
-}
+std::optional<Record> PrefetchingReader::Next() { return impl_->queue.Pop(); }
 
 const MissionInfo& PrefetchingReader::Mission() const { return impl_->mission; }
 const RobotInfo& PrefetchingReader::Robot() const { return impl_->robot; }

@@ -1,15 +1,12 @@
-// RobotStream: SimulateRobot on a producer thread into a bounded queue (robot_stream.hpp).
-// The shape of recording::PrefetchingReader: records move under one mutex, the work (the
-// rendering of pings) runs outside it.
+// RobotStream: SimulateRobot on a producer thread into a bounded queue (robot_stream.hpp);
+// the rendering of pings runs outside the queue's lock.
 #include "draco/sim/robot_stream.hpp"
 
-#include <condition_variable>
-#include <deque>
 #include <exception>
-#include <mutex>
 #include <thread>
 #include <utility>
 
+#include "draco/msgs/bounded_queue.hpp"
 #include "draco/sim/simulator.hpp"
 #include "draco/sim/sonar_model.hpp"
 
@@ -25,35 +22,26 @@ struct Stopped {};
 }  // namespace
 
 struct RobotStream::Impl final : RobotSink {
-  Impl(World w, Mission m, int index, std::size_t d, bool with_sonar)
+  Impl(World w, Mission m, int index, std::size_t depth, bool with_sonar)
       : world(std::move(w)),
         mission(std::move(m)),
         robot_index(index),
-        depth(d < 1 ? 1 : d),
-        sonar(with_sonar ? std::make_unique<SonarModel>(world, mission.sonar) : nullptr) {}
+        sonar(with_sonar ? std::make_unique<SonarModel>(world, mission.sonar) : nullptr),
+        queue(depth) {}
 
   void Run() {
-    std::exception_ptr failure;
     try {
       SimulateRobot(world, mission, robot_index, sonar.get(), *this);
+      queue.Finish();
     } catch (const Stopped&) {
     } catch (...) {
-      failure = std::current_exception();
+      queue.Finish(std::current_exception());
     }
-    std::lock_guard<std::mutex> lock(mutex);
-    error = failure;
-    done = true;
-    ready.notify_all();
   }
 
-  // Waits for room (or stop) and queues the record; the producer's thread only.
+  // Waits for room and queues the record; leaves SimulateRobot once the stream is stopped.
   void Push(StreamRecord record) {
-    std::unique_lock<std::mutex> lock(mutex);
-    room.wait(lock, [&] { return stop || records.size() < depth; });
-    if (stop) throw Stopped{};
-    records.push_back(std::move(record));
-    lock.unlock();
-    ready.notify_one();
+    if (!queue.Push(std::move(record))) throw Stopped{};
   }
 
   void OnPing(const msgs::SonarPing& ping, const TrajectorySample&) override { Push(ping); }
@@ -66,16 +54,8 @@ struct RobotStream::Impl final : RobotSink {
   const World world;
   const Mission mission;
   const int robot_index;
-  const std::size_t depth;
   const std::unique_ptr<const SonarModel> sonar;
-
-  std::mutex mutex;
-  std::condition_variable ready;  // a record, the end or an error is there
-  std::condition_variable room;   // the queue has room, or stop
-  std::deque<StreamRecord> records;
-  bool done = false;
-  bool stop = false;
-  std::exception_ptr error;
+  msgs::BoundedQueue<StreamRecord> queue;
   std::thread thread;
 };
 
@@ -89,27 +69,10 @@ RobotStream::RobotStream(World world, Mission mission, int robot_index, std::siz
 RobotStream::~RobotStream() { Stop(); }
 
 void RobotStream::Stop() {
-  {
-    std::lock_guard<std::mutex> lock(impl_->mutex);
-    impl_->stop = true;
-    impl_->records.clear();
-  }
-  impl_->room.notify_all();
+  impl_->queue.Close();
   if (impl_->thread.joinable()) impl_->thread.join();
 }
 
-std::optional<StreamRecord> RobotStream::Next() {
-  std::unique_lock<std::mutex> lock(impl_->mutex);
-  impl_->ready.wait(lock, [&] { return !impl_->records.empty() || impl_->done || impl_->stop; });
-  if (!impl_->records.empty()) {
-    StreamRecord record = std::move(impl_->records.front());
-    impl_->records.pop_front();
-    lock.unlock();
-    impl_->room.notify_one();
-    return record;
-  }
-  if (impl_->error && !impl_->stop) std::rethrow_exception(impl_->error);
-  return std::nullopt;
-}
+std::optional<StreamRecord> RobotStream::Next() { return impl_->queue.Pop(); }
 
 }  // namespace draco::sim

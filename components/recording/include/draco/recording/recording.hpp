@@ -218,10 +218,11 @@ class RobotReader {
   std::unique_ptr<Impl> impl_;
 };
 
-// A RobotReader read ahead on a thread of its own, up to `depth` records: Next() gives the
-// same records in the same order as the reader's Next() (and throws its RecordingError where
-// the reader would have), so a replay's outputs do not change, while decompressing pings runs
-// beside the consumer (on 2 cores the team replay's readers leave the executor's thread).
+// A RobotReader read ahead on a thread of its own, up to `depth` records waiting (and one in
+// the reader's hands): Next() gives the same records in the same order as the reader's Next()
+// (and throws its RecordingError where the reader would have), so a replay's outputs do not
+// change, while decompressing pings runs beside the consumer (on 2 cores the team replay's
+// readers leave the executor's thread).
 class PrefetchingReader {
  public:
   PrefetchingReader(RobotReader reader, std::size_t depth);
