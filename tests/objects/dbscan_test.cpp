@@ -56,6 +56,92 @@ TEST(Dbscan, BatchFindsTwoBlobsAndNoise) {
   EXPECT_EQ(labels[60], kNoise);
 }
 
+// The header's definition, pair by pair (O(n^2)): labels, ids and border rule included.
+std::vector<int> BruteForceDbscan(const std::vector<Point2>& p, const DbscanOptions& o) {
+  const std::size_t n = p.size();
+  const double r2 = o.eps_m * o.eps_m;
+  const auto d2 = [&](std::size_t i, std::size_t j) {
+    const double ex = p[j].x_m - p[i].x_m, ey = p[j].y_m - p[i].y_m;
+    return ex * ex + ey * ey;
+  };
+  std::vector<bool> core(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    int count = 0;
+    for (std::size_t j = 0; j < n; ++j) count += d2(i, j) <= r2 ? 1 : 0;
+    core[i] = count >= o.min_points;
+  }
+  std::vector<int> labels(n, kNoise);
+  int next = 0;
+  for (std::size_t seed = 0; seed < n; ++seed) {
+    if (!core[seed] || labels[seed] != kNoise) continue;
+    std::vector<std::size_t> stack{seed};
+    labels[seed] = next;
+    while (!stack.empty()) {
+      const std::size_t i = stack.back();
+      stack.pop_back();
+      for (std::size_t j = 0; j < n; ++j) {
+        if (core[j] && labels[j] == kNoise && d2(i, j) <= r2) {
+          labels[j] = next;
+          stack.push_back(j);
+        }
+      }
+    }
+    ++next;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (core[i]) continue;
+    double best = r2;
+    for (std::size_t j = 0; j < n; ++j) {  // nearest core point; ties: the lower index
+      if (core[j] && d2(i, j) <= best && (labels[i] == kNoise || d2(i, j) < best)) {
+        best = d2(i, j);
+        labels[i] = labels[j];
+      }
+    }
+  }
+  return labels;
+}
+
+TEST(Dbscan, BatchEqualsTheDefinitionPairByPair) {
+  int clusters = 0, borders = 0;
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    std::mt19937_64 rng(seed);
+    const int blobs = 1 + static_cast<int>(seed % 5);
+    auto points = RandomWorld(&rng, blobs, 10 + static_cast<int>(seed % 4) * 15,
+                              static_cast<int>(seed % 7) * 20, 10.0 + 5.0 * double(seed % 3));
+    for (auto& q : points) q.x_m -= 12.0;            // cells on both sides of zero
+    points.push_back(points[seed % points.size()]);  // a duplicate point
+    DbscanOptions o;
+    o.eps_m = seed % 2 ? 1.5 : 0.8;
+    o.min_points = 4 + static_cast<int>(seed % 3) * 8;
+    const auto expected = BruteForceDbscan(points, o);
+    ASSERT_EQ(DbscanBatch(points, o), expected) << "seed " << seed;
+    clusters += *std::max_element(expected.begin(), expected.end()) + 1;
+    for (std::size_t i = 0; i < points.size(); ++i) borders += expected[i] != kNoise;
+  }
+  EXPECT_GT(clusters, 30);  // the worlds do hold clusters
+  EXPECT_GT(borders, 1000);
+}
+
+TEST(Dbscan, BatchCountsNeighboursAtExactlyEps) {
+  // A lattice of spacing eps: each interior point has its 4 lattice neighbours at exactly eps
+  // (distance <= eps counts) and the diagonal ones beyond.
+  std::vector<Point2> points;
+  for (int i = -5; i < 5; ++i) {
+    for (int j = -3; j < 4; ++j) points.push_back({1.0 * i, 1.0 * j});
+  }
+  DbscanOptions o;
+  o.eps_m = 1.0;
+  o.min_points = 5;  // itself and 4 at exactly eps: interior points are core
+  const auto labels = DbscanBatch(points, o);
+  EXPECT_EQ(labels, BruteForceDbscan(points, o));
+  EXPECT_EQ(labels[static_cast<std::size_t>(3 * 7 + 3)], 0);  // interior
+  EXPECT_EQ(labels[3], 0);       // (-5, 0), an edge: a border point of the one cluster
+  EXPECT_EQ(labels[0], kNoise);  // (-5, -3), a corner: its neighbours are edges, not core
+  o.min_points = 6;              // no point has 5 neighbours within eps: all noise
+  const auto none = DbscanBatch(points, o);
+  EXPECT_TRUE(std::all_of(none.begin(), none.end(), [](int l) { return l == kNoise; }));
+}
+
 TEST(Dbscan, IncrementalEqualsBatchOnRandomSequences) {
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     std::mt19937_64 rng(seed);

@@ -6,6 +6,7 @@
 #include <map>
 #include <stdexcept>
 #include <tuple>
+#include <unordered_map>
 
 namespace draco::objects {
 namespace {
@@ -31,45 +32,173 @@ void PointGrid::Insert(const Point2& p, std::uint32_t index) {
   cells_[Key(Cell(p.x_m), Cell(p.y_m))].push_back(index);
 }
 
+namespace {
+
+// The points sorted into square cells of side eps / sqrt(2) (a hair less): any two points of
+// a cell are within eps of each other, and a point's neighbours within eps lie in the 5 x 5
+// cells around its own. Cells hold their points contiguously (coordinates copied in cell
+// order) and know their non-empty neighbour cells.
+struct CellGrid {
+  std::vector<double> x, y;              // in cell order
+  std::vector<std::uint32_t> index;      // cell order -> point index
+  std::vector<std::uint32_t> begin;      // cell -> first position; begin[cells] = n
+  std::vector<std::uint32_t> nbr_begin;  // cell -> first entry of nbr
+  std::vector<std::uint32_t> nbr;        // non-empty cells of the 5 x 5 around, itself included
+
+  std::size_t Cells() const { return begin.size() - 1; }
+
+  CellGrid(const std::vector<Point2>& points, double eps_m) {
+    const std::size_t n = points.size();
+    const double side = eps_m / std::sqrt(2.0) * (1.0 - 1e-9);
+    std::vector<std::pair<std::int64_t, std::int64_t>> cell(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      cell[i] = {static_cast<std::int64_t>(std::floor(points[i].x_m / side)),
+                 static_cast<std::int64_t>(std::floor(points[i].y_m / side))};
+    }
+    index.resize(n);
+    for (std::size_t i = 0; i < n; ++i) index[i] = static_cast<std::uint32_t>(i);
+    std::sort(index.begin(), index.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return cell[a] < cell[b] || (cell[a] == cell[b] && a < b);
+    });
+    x.resize(n);
+    y.resize(n);
+    const auto key = [](std::int64_t cx, std::int64_t cy) {
+      return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(cx)) << 32) |
+             static_cast<std::uint32_t>(cy);
+    };
+    std::unordered_map<std::uint64_t, std::uint32_t> id;
+    for (std::size_t s = 0; s < n; ++s) {
+      const std::uint32_t i = index[s];
+      x[s] = points[i].x_m;
+      y[s] = points[i].y_m;
+      if (s == 0 || cell[i] != cell[index[s - 1]]) {
+        id.emplace(key(cell[i].first, cell[i].second), static_cast<std::uint32_t>(begin.size()));
+        begin.push_back(static_cast<std::uint32_t>(s));
+      }
+    }
+    begin.push_back(static_cast<std::uint32_t>(n));
+    nbr_begin.reserve(begin.size());
+    for (std::size_t c = 0; c + 1 < begin.size(); ++c) {
+      nbr_begin.push_back(static_cast<std::uint32_t>(nbr.size()));
+      const auto [cx, cy] = cell[index[begin[c]]];
+      for (std::int64_t dx = -2; dx <= 2; ++dx) {
+        for (std::int64_t dy = -2; dy <= 2; ++dy) {
+          const auto it = id.find(key(cx + dx, cy + dy));
+          if (it != id.end()) nbr.push_back(it->second);
+        }
+      }
+    }
+    nbr_begin.push_back(static_cast<std::uint32_t>(nbr.size()));
+  }
+};
+
+}  // namespace
+
 std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOptions& options) {
   CheckOptions(options);
   const std::size_t n = points.size();
-  PointGrid grid(options.eps_m);
-  for (std::size_t i = 0; i < n; ++i) grid.Insert(points[i], static_cast<std::uint32_t>(i));
+  if (n == 0) return {};
+  const double r2 = options.eps_m * options.eps_m;
+  const auto min_points = static_cast<std::size_t>(options.min_points);
+  const CellGrid g(points, options.eps_m);
+  const std::size_t cells = g.Cells();
+  const auto within = [&](std::uint32_t s, std::uint32_t t) {
+    const double ex = g.x[t] - g.x[s], ey = g.y[t] - g.y[s];
+    return ex * ex + ey * ey <= r2;
+  };
+  // 1. Core points (cell order): a cell of min_points is all core; otherwise count the
+  // neighbours (itself included) until min_points.
   std::vector<std::uint8_t> core(n, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    int count = 0;
-    grid.ForNeighbours(points, points[i], options.eps_m, [&](std::uint32_t) { ++count; });
-    core[i] = count >= options.min_points;
-  }
-  std::vector<int> labels(n, kNoise);
-  int next = 0;
-  std::vector<std::uint32_t> stack;
-  for (std::size_t seed = 0; seed < n; ++seed) {  // components of core points
-    if (!core[seed] || labels[seed] != kNoise) continue;
-    labels[seed] = next;
-    stack.assign(1, static_cast<std::uint32_t>(seed));
-    while (!stack.empty()) {
-      const std::uint32_t i = stack.back();
-      stack.pop_back();
-      grid.ForNeighbours(points, points[i], options.eps_m, [&](std::uint32_t j) {
-        if (core[j] && labels[j] == kNoise) {
-          labels[j] = next;
-          stack.push_back(j);
-        }
-      });
+  for (std::size_t c = 0; c < cells; ++c) {
+    if (g.begin[c + 1] - g.begin[c] >= min_points) {
+      std::fill(core.begin() + g.begin[c], core.begin() + g.begin[c + 1], 1);
+      continue;
     }
-    ++next;
+    for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
+      std::size_t count = 0;
+      for (std::uint32_t e = g.nbr_begin[c]; e < g.nbr_begin[c + 1] && count < min_points; ++e) {
+        const std::uint32_t d = g.nbr[e];
+        for (std::uint32_t t = g.begin[d]; t < g.begin[d + 1] && count < min_points; ++t) {
+          count += within(s, t) ? 1 : 0;
+        }
+      }
+      core[s] = count >= min_points;
+    }
   }
-  for (std::size_t i = 0; i < n; ++i) {  // border points: nearest core point
-    if (core[i]) continue;
-    std::int64_t best = -1;
-    double best_d2 = 0.0;
-    grid.ForNeighbours(points, points[i], options.eps_m, [&](std::uint32_t j) {
-      const double d2 = Dist2(points[i], points[j]);
-      if (core[j] && Closer(d2, j, best_d2, best)) best = j, best_d2 = d2;
-    });
-    if (best >= 0) labels[i] = labels[static_cast<std::size_t>(best)];
+  // 2. Clusters: the core points of a cell are one another's neighbours; two cells join when
+  // any core point of one lies within eps of one of the other (union-find over cells).
+  std::vector<std::uint32_t> parent(cells);
+  std::vector<std::uint8_t> core_cell(cells, 0);
+  for (std::size_t c = 0; c < cells; ++c) {
+    parent[c] = static_cast<std::uint32_t>(c);
+    for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1] && !core_cell[c]; ++s) {
+      core_cell[c] = core[s];
+    }
+  }
+  const auto find = [&](std::uint32_t c) {
+    while (parent[c] != c) c = parent[c] = parent[parent[c]];
+    return c;
+  };
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    if (!core_cell[c]) continue;
+    for (std::uint32_t e = g.nbr_begin[c]; e < g.nbr_begin[c + 1]; ++e) {
+      const std::uint32_t d = g.nbr[e];
+      if (d <= c || !core_cell[d] || find(c) == find(d)) continue;
+      bool joined = false;
+      for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1] && !joined; ++s) {
+        if (!core[s]) continue;
+        for (std::uint32_t t = g.begin[d]; t < g.begin[d + 1] && !joined; ++t) {
+          joined = core[t] && within(s, t);
+        }
+      }
+      if (joined) {
+        const std::uint32_t a = find(c), b = find(d);
+        parent[std::max(a, b)] = std::min(a, b);
+      }
+    }
+  }
+  // Ids in the order of each cluster's lowest core point index.
+  std::vector<std::uint32_t> lowest(cells, std::numeric_limits<std::uint32_t>::max());
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
+      if (!core[s]) continue;
+      std::uint32_t& low = lowest[find(c)];
+      low = std::min(low, g.index[s]);
+    }
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> roots;  // (lowest index, root)
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    if (core_cell[c] && find(c) == c) roots.emplace_back(lowest[c], c);
+  }
+  std::sort(roots.begin(), roots.end());
+  std::vector<int> cluster(cells, kNoise);
+  for (std::size_t k = 0; k < roots.size(); ++k) cluster[roots[k].second] = static_cast<int>(k);
+  // 3. Labels: core points their cluster's; border points their nearest core point's.
+  std::vector<int> labels(n, kNoise);
+  for (std::uint32_t c = 0; c < cells; ++c) {
+    for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
+      if (core[s]) {
+        labels[g.index[s]] = cluster[find(c)];
+        continue;
+      }
+      std::int64_t best = -1;
+      double best_d2 = 0.0;
+      int best_label = kNoise;
+      for (std::uint32_t e = g.nbr_begin[c]; e < g.nbr_begin[c + 1]; ++e) {
+        const std::uint32_t d = g.nbr[e];
+        if (!core_cell[d]) continue;
+        for (std::uint32_t t = g.begin[d]; t < g.begin[d + 1]; ++t) {
+          if (!core[t]) continue;
+          const double d2 = Dist2(points[g.index[s]], points[g.index[t]]);
+          if (d2 <= r2 && Closer(d2, g.index[t], best_d2, best)) {
+            best = g.index[t];
+            best_d2 = d2;
+            best_label = cluster[find(d)];
+          }
+        }
+      }
+      labels[g.index[s]] = best_label;
+    }
   }
   return labels;
 }
