@@ -361,6 +361,89 @@ TEST(MaxClique, TinyBudgetFallsBackToHeuristicAndSaysSo) {
   EXPECT_EQ(MaximumClique(g, by_nodes).vertices, n.vertices);  // deterministic
 }
 
+// The marina's shape: a large clique (true loops) and outliers, each adjacent to most of it
+// or to little, to each other at random.
+Graph PlantedClique(int clique, int outliers, double p_to_clique, double p_outliers,
+                    std::mt19937& rng) {
+  Graph g(clique + outliers);
+  for (int u = 0; u < clique; ++u) {
+    for (int v = u + 1; v < clique; ++v) g.AddEdge(u, v);
+  }
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int q = clique; q < clique + outliers; ++q) {
+    const double p = unit(rng) < 0.5 ? p_to_clique : 0.3;  // near-inliers and plain outliers
+    for (int u = 0; u < clique; ++u) {
+      if (unit(rng) < p) g.AddEdge(q, u);
+    }
+    for (int w = clique; w < q; ++w) {
+      if (unit(rng) < p_outliers) g.AddEdge(q, w);
+    }
+  }
+  return g;
+}
+
+// The kernel search gives the size of the full search, a clique holding the required vertex
+// within the candidates, for any known clique (the planted one, part of it, a greedy one,
+// none) and any lower bound; on the planted graphs, around the planted clique, the branch and
+// bound runs on a small part of the candidates when the lower bound is that clique's size
+// (the filter's searches).
+TEST(MaxClique, KernelGivesTheSizeOfTheFullSearch) {
+  std::mt19937 rng(15);
+  std::int64_t searched_full = 0;
+  std::int64_t searched_kernel = 0;
+  int searches = 0;
+  int same_vertices = 0;
+  for (int trial = 0; trial < 120; ++trial) {
+    const bool planted = trial % 2 == 0;
+    const Graph g = planted ? PlantedClique(60 + trial, 10 + trial % 25, 0.995, 0.5, rng)
+                            : RandomGraph(12 + trial % 40, 0.3 + 0.6 * (trial % 5) / 4.0, rng);
+    const int n = g.NumVertices();
+    const std::vector<int> best = MaximumClique(g).vertices;
+    std::vector<std::vector<int>> knowns{{}, best, GreedyClique(g, best)};
+    std::vector<int> part;
+    for (std::size_t i = 0; i < best.size(); i += 2) part.push_back(best[i]);
+    knowns.push_back(part);
+    std::uniform_int_distribution<int> pick(0, n - 1);
+    for (int round = 0; round < 4; ++round) {
+      const int v = round == 0 && !best.empty() ? best.back() : pick(rng);
+      std::vector<int> candidates;  // neighbours of v, some left out
+      for (int u = 0; u < n; ++u) {
+        if (u != v && g.HasEdge(u, v) && pick(rng) % 10 != 0) candidates.push_back(u);
+      }
+      const int full_size =
+          static_cast<int>(MaximumCliqueWithin(g, {v}, candidates).vertices.size());
+      for (const int lower : {0, full_size - 2, full_size - 1, full_size}) {
+        CliqueOptions co;
+        co.lower_bound = std::max(0, lower);
+        const CliqueResult full = MaximumCliqueWithin(g, {v}, candidates, co);
+        for (const auto& known : knowns) {
+          // `known` minus v and outside the candidates stays a clique.
+          const CliqueResult k = MaximumCliqueWithinKernel(g, {v}, candidates, known, co);
+          ASSERT_TRUE(k.exact);
+          ASSERT_EQ(k.vertices.size(), full.vertices.size())
+              << "trial " << trial << " v " << v << " lower " << lower;
+          if (k.vertices.empty()) continue;
+          EXPECT_TRUE(IsClique(g, k.vertices));
+          EXPECT_TRUE(std::binary_search(k.vertices.begin(), k.vertices.end(), v));
+          for (const int u : k.vertices) {
+            EXPECT_TRUE(u == v ||
+                        std::find(candidates.begin(), candidates.end(), u) != candidates.end());
+          }
+          if (planted && known == best && lower >= full_size - 1) {  // the filter's case
+            same_vertices += k.vertices == full.vertices ? 1 : 0;
+            searched_full += full.searched;
+            searched_kernel += k.searched;
+            ++searches;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(searches, 100);
+  EXPECT_EQ(same_vertices, searches);
+  EXPECT_LT(searched_kernel * 5, searched_full) << searched_kernel << " vs " << searched_full;
+}
+
 // ---------------------------------------------------------------- filters
 
 std::set<std::uint64_t> Ids(const std::vector<std::uint64_t>& v) { return {v.begin(), v.end()}; }
@@ -572,6 +655,51 @@ TEST(Filter, FastPairTestsGiveIdenticalDecisions) {
       }
     }
   }
+}
+
+// The kernel searches (the default) decide as the searches over every candidate, step by
+// step: the same accepted sets on these missions, and the same sizes in any case.
+TEST(Filter, CliqueKernelGivesTheSameDecisions) {
+  int steps = 0;
+  int same_sets = 0;
+  std::int64_t nodes_kernel = 0;
+  std::int64_t nodes_full = 0;
+  for (const auto kind : {synthetic::OutlierKind::kRandom, synthetic::OutlierKind::kCorrelated}) {
+    for (const auto method : {Method::kPcm, Method::kGcm}) {
+      for (const double outliers : {0.1, 0.6}) {
+        synthetic::MissionOptions mo;
+        mo.outlier_fraction = outliers;
+        mo.outliers = kind;
+        mo.inliers = 120;
+        mo.seed = 71;
+        const auto m = synthetic::MakeMission(mo);
+        FilterOptions fo;
+        fo.method = method;
+        ConsistencyFilter kernel(fo);
+        fo.clique_kernel = false;
+        ConsistencyFilter full(fo);
+        std::size_t next = 0;
+        for (int step = 0; next < m.loops.size(); step += 2) {
+          std::vector<msgs::InterRobotLoop> batch;
+          while (next < m.loops.size() && m.arrival[next] < step + 2) {
+            batch.push_back(m.loops[next++]);
+          }
+          if (batch.empty()) continue;
+          const Decision a = kernel.Add(batch, m.poses);
+          const Decision b = full.Add(batch, m.poses);
+          ASSERT_TRUE(a.exact && b.exact);
+          ASSERT_EQ(a.accepted.size(), b.accepted.size()) << "step " << step;
+          ++steps;
+          same_sets += a.accepted == b.accepted ? 1 : 0;
+          nodes_kernel += a.clique_nodes;
+          nodes_full += b.clique_nodes;
+        }
+      }
+    }
+  }
+  EXPECT_GT(steps, 100);
+  EXPECT_EQ(same_sets, steps);
+  EXPECT_LT(nodes_kernel, nodes_full);
 }
 
 TEST(Filter, NodeBudgetIsDeterministicAndSaysSo) {

@@ -32,6 +32,9 @@ struct ConsistencyStage::Impl {
   std::set<std::uint64_t> accepted_ids;
   std::set<std::uint64_t> sent_ids;
   std::uint64_t next_loop_id = 0;
+  // The accepted set may have changed since the last Step looked for loops to send (every
+  // accepted loop not received is sent in the step it is first accepted).
+  bool accepted_changed = false;
   std::unique_ptr<cons::ConsistencyFilter> filter;
 
   int own_id() const { return options.robot_id; }
@@ -107,6 +110,7 @@ struct ConsistencyStage::Impl {
       const auto d = filter->Add(candidates, source);
       accepted_ids.insert(d.accepted.begin(), d.accepted.end());
     }
+    accepted_changed = true;
     RefreshLoopViews();
   }
 
@@ -224,22 +228,28 @@ std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
     const auto d = a.filter->Add(fresh, source);
     a.candidates.insert(a.candidates.end(), fresh.begin(), fresh.end());
     a.accepted_ids = std::set<std::uint64_t>(d.accepted.begin(), d.accepted.end());
+    a.accepted_changed = true;
     a.RefreshLoopViews();
   }
   std::map<int, msgs::LoopClosureMessage> messages;
-  for (const auto& l : a.candidates) {
-    if (!a.accepted_ids.count(l.id) || a.received_ids.count(l.id) || a.sent_ids.count(l.id)) {
-      continue;
+  // Newly accepted loops that were not received go to their teammates (only when the
+  // accepted set may have changed: O(candidates)).
+  if (a.accepted_changed) {
+    for (const auto& l : a.candidates) {
+      if (!a.accepted_ids.count(l.id) || a.received_ids.count(l.id) || a.sent_ids.count(l.id)) {
+        continue;
+      }
+      a.sent_ids.insert(l.id);
+      auto& m = messages[l.teammate_robot];
+      m.header.robot_id = a.own_id();
+      m.header.time_s = now_s;
+      m.target_robot = l.teammate_robot;
+      auto sent = l;
+      sent.flags = msgs::kLoopAccepted;
+      m.loops.push_back(sent);
     }
-    a.sent_ids.insert(l.id);
-    auto& m = messages[l.teammate_robot];
-    m.header.robot_id = a.own_id();
-    m.header.time_s = now_s;
-    m.target_robot = l.teammate_robot;
-    auto sent = l;
-    sent.flags = msgs::kLoopAccepted;
-    m.loops.push_back(sent);
   }
+  a.accepted_changed = false;
   std::vector<msgs::LoopClosureMessage> out;
   for (auto& [robot, m] : messages) out.push_back(std::move(m));
   st->loops_accepted = static_cast<int>(a.accepted_ids.size());

@@ -44,6 +44,13 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     }
     return co;
   };
+  // Incremental searches: around the group's current clique (options_.clique_kernel).
+  const auto search = [&](const Group& group, const std::vector<int>& required,
+                          const std::vector<int>& candidates, const CliqueOptions& co) {
+    return options_.clique_kernel
+               ? MaximumCliqueWithinKernel(group.graph, required, candidates, group.clique, co)
+               : MaximumCliqueWithin(group.graph, required, candidates, co);
+  };
   Decision decision;
   const bool reference = options_.queue == QueueMode::kReference;
 
@@ -121,7 +128,9 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
     const int current = static_cast<int>(group.clique.size());
     if (n - first >= first) {
       // Mostly new: one search over the whole group, for a clique beating the current one.
-      const CliqueResult r = MaximumClique(group.graph, clique_options(current));
+      std::vector<int> all(static_cast<std::size_t>(n));
+      for (int u = 0; u < n; ++u) all[static_cast<std::size_t>(u)] = u;
+      const CliqueResult r = search(group, {}, all, clique_options(current));
       nodes_used += r.nodes;
       decision.exact = decision.exact && r.exact;
       decision.clique_nodes += r.nodes;
@@ -137,8 +146,8 @@ Decision ConsistencyFilter::Add(const std::vector<msgs::InterRobotLoop>& loops,
         if (static_cast<int>(candidates.size()) + 1 <= static_cast<int>(group.clique.size())) {
           continue;
         }
-        const CliqueResult r = MaximumCliqueWithin(
-            group.graph, {v}, candidates, clique_options(static_cast<int>(group.clique.size())));
+        const CliqueResult r =
+            search(group, {v}, candidates, clique_options(static_cast<int>(group.clique.size())));
         nodes_used += r.nodes;
         decision.exact = decision.exact && r.exact;
         decision.clique_nodes += r.nodes;

@@ -180,8 +180,13 @@ std::vector<int> GreedyClique(const Graph& graph, const std::vector<int>& candid
   return best;
 }
 
-CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& required,
-                                 const std::vector<int>& candidates, const CliqueOptions& options) {
+namespace {
+
+// MaximumCliqueWithin with the candidates ordered by their degree within `order_set` (a
+// superset of them; decreasing, ties by index).
+CliqueResult SearchWithin(const Graph& graph, const std::vector<int>& required,
+                          const std::vector<int>& candidates, const Bits* order_set,
+                          const CliqueOptions& options) {
   const auto start = Clock::now();
   const bool budgeted = options.time_budget_ms > 0.0;
   const auto deadline =
@@ -192,11 +197,12 @@ CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& req
   const std::size_t gw = static_cast<std::size_t>(graph.NumWords());
   Bits cand(gw, 0);
   for (const int v : candidates) Set(cand, v);
+  const Bits& within = order_set != nullptr ? *order_set : cand;
   std::vector<int> degree(static_cast<std::size_t>(m));
   for (int i = 0; i < m; ++i) {
     int c = 0;
     for (std::size_t w = 0; w < gw; ++w) {
-      c += std::popcount(graph.Row(candidates[static_cast<std::size_t>(i)])[w] & cand[w]);
+      c += std::popcount(graph.Row(candidates[static_cast<std::size_t>(i)])[w] & within[w]);
     }
     degree[static_cast<std::size_t>(i)] = c;
   }
@@ -232,6 +238,7 @@ CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& req
 
   CliqueResult result;
   result.nodes = solver.nodes();
+  result.searched = m;
   std::vector<int> found;
   for (const int v : solver.best()) found.push_back(to_global[static_cast<std::size_t>(v)]);
   if (solver.aborted()) {
@@ -248,6 +255,97 @@ CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& req
     std::sort(result.vertices.begin(), result.vertices.end());
   }
   return result;
+}
+
+}  // namespace
+
+CliqueResult MaximumCliqueWithin(const Graph& graph, const std::vector<int>& required,
+                                 const std::vector<int>& candidates, const CliqueOptions& options) {
+  return SearchWithin(graph, required, candidates, nullptr, options);
+}
+
+CliqueResult MaximumCliqueWithinKernel(const Graph& graph, const std::vector<int>& required,
+                                       const std::vector<int>& candidates,
+                                       const std::vector<int>& known,
+                                       const CliqueOptions& options) {
+  const std::size_t words = static_cast<std::size_t>(graph.NumWords());
+  Bits in_known(words, 0);
+  for (const int v : known) Set(in_known, v);
+  Bits known_cand(words, 0);  // candidates in `known`
+  Bits outside(words, 0);     // candidates outside `known`, still possible
+  for (const int v : candidates) Set(Test(in_known, v) ? known_cand : outside, v);
+  // Candidate neighbours of each outside candidate: the known ones it is adjacent to plus the
+  // outside ones left.
+  const int needed = options.lower_bound - static_cast<int>(required.size());
+  std::vector<int> outside_list;
+  for (std::size_t w = 0; w < words; ++w) {
+    for (std::uint64_t b = outside[w]; b != 0; b &= b - 1) {
+      outside_list.push_back(static_cast<int>(w * 64) + std::countr_zero(b));
+    }
+  }
+  std::vector<int> known_neighbours(outside_list.size());
+  std::vector<int> outside_neighbours(outside_list.size());
+  std::vector<int> position(outside_list.size());
+  for (std::size_t i = 0; i < outside_list.size(); ++i) {
+    const auto& row = graph.Row(outside_list[i]);
+    int k = 0;
+    int o = 0;
+    for (std::size_t w = 0; w < words; ++w) {
+      k += std::popcount(known_cand[w] & row[w]);
+      o += std::popcount(outside[w] & row[w]);
+    }
+    known_neighbours[i] = k;
+    outside_neighbours[i] = o;
+  }
+  // Drop outside candidates that cannot reach `needed` neighbours; each drop lowers its
+  // outside neighbours' counts.
+  std::vector<std::size_t> drop;
+  std::vector<bool> dropped(outside_list.size(), false);
+  auto index_of = [&](int v) {
+    return static_cast<std::size_t>(std::lower_bound(outside_list.begin(), outside_list.end(), v) -
+                                    outside_list.begin());
+  };
+  for (std::size_t i = 0; i < outside_list.size(); ++i) {
+    if (known_neighbours[i] + outside_neighbours[i] < needed) {
+      dropped[i] = true;
+      drop.push_back(i);
+    }
+  }
+  while (!drop.empty()) {
+    const std::size_t i = drop.back();
+    drop.pop_back();
+    Clear(outside, outside_list[i]);
+    const auto& row = graph.Row(outside_list[i]);
+    for (std::size_t w = 0; w < words; ++w) {
+      for (std::uint64_t b = outside[w] & row[w]; b != 0; b &= b - 1) {
+        const std::size_t j = index_of(static_cast<int>(w * 64) + std::countr_zero(b));
+        if (!dropped[j] && known_neighbours[j] + --outside_neighbours[j] < needed) {
+          dropped[j] = true;
+          drop.push_back(j);
+        }
+      }
+    }
+  }
+  // Known candidates some outside candidate left is not adjacent to stay in the search.
+  Bits searched = outside;
+  for (std::size_t i = 0; i < outside_list.size(); ++i) {
+    if (dropped[i]) continue;
+    const auto& row = graph.Row(outside_list[i]);
+    for (std::size_t w = 0; w < words; ++w) searched[w] |= known_cand[w] & ~row[w];
+  }
+  std::vector<int> all_required = required;
+  std::vector<int> kernel;
+  for (std::size_t w = 0; w < words; ++w) {
+    for (std::uint64_t b = known_cand[w] & ~searched[w]; b != 0; b &= b - 1) {
+      all_required.push_back(static_cast<int>(w * 64) + std::countr_zero(b));
+    }
+    for (std::uint64_t b = searched[w]; b != 0; b &= b - 1) {
+      kernel.push_back(static_cast<int>(w * 64) + std::countr_zero(b));
+    }
+  }
+  Bits all_candidates(words, 0);
+  for (const int v : candidates) Set(all_candidates, v);
+  return SearchWithin(graph, all_required, kernel, &all_candidates, options);
 }
 
 CliqueResult MaximumClique(const Graph& graph, const CliqueOptions& options) {

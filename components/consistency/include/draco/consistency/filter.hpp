@@ -49,6 +49,10 @@ struct FilterOptions {
   // PairTester when the PoseSource has open chains (same decisions, ~10x cheaper pair
   // tests); false: TestPair for every pair, the straightforward path.
   bool fast_pair_tests = true;
+  // Incremental mode: clique searches on the kernel left by MaximumCliqueWithinKernel around
+  // the current clique (the same sizes, ~the outliers' work instead of the whole group's);
+  // false: MaximumCliqueWithin over every candidate.
+  bool clique_kernel = true;
 };
 
 // Loop ids (msgs::InterRobotLoop::id), ascending.
