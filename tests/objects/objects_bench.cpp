@@ -55,6 +55,9 @@ void BM_MatchSparsePaper(benchmark::State& state) {
   Match(state, {.affinity = AffinityForm::kPaper, .mu_per_m = 4.0});
 }
 void BM_MatchDenseCode(benchmark::State& state) { Match(state, {.dense = true}); }
+void BM_MatchSparseComponents(benchmark::State& state) {
+  Match(state, {.spectral_components = true});
+}
 
 BENCHMARK(BM_MatchSparseCode)
     ->Arg(10)
@@ -62,6 +65,12 @@ BENCHMARK(BM_MatchSparseCode)
     ->Arg(25)
     ->Arg(30)
     ->Arg(50)
+    ->Arg(100)
+    ->Arg(200)
+    ->Arg(500)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MatchSparseComponents)
+    ->Arg(30)
     ->Arg(100)
     ->Arg(200)
     ->Arg(500)

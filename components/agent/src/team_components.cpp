@@ -252,6 +252,14 @@ class GraphMatcherComponent final : public graph::Component {
                 .origin = "1.0 on tuning seeds 1-10, marina and airplane: 30 pairs right / 3 "
                           "wrong, lowest world precision 0.996, against 27 / 4 and 0.576 without "
                           "the check; 0.5 placed none of seed 2's 10: docs/safe-merges.md"});
+    spec.Param("spectral_components", &o_.matcher.spectral_components,
+               {.doc = "spectral relaxation per connected component of the affinity graph "
+                       "(each component's positive eigenvector; competing components are "
+                       "competing hypotheses) instead of power iteration over the whole matrix"});
+    spec.Param("component_tie_ratio", &o_.matcher.component_tie_ratio,
+               {.doc = "... a component whose top eigenvalue is at least this fraction of the "
+                       "best's gives a competing hypothesis (> 1: the best only)",
+                .min = 0.0});
     spec.Param("prefix", &prefix_,
                {.doc = "output file name prefix, e.g. the robot name; writes "
                        "<prefix>matches.csv (every matching tried)"});

@@ -1,9 +1,11 @@
 // Spectral relaxation of the object-graph matching QAP (graph_matcher.hpp): the sparse
-// affinity matrix of candidate pairs, its principal eigenvector by power iteration, and the
-// assignment weights (sparse, or the dense reference).
+// affinity matrix of candidate pairs, its principal eigenvector by power iteration (of the
+// whole matrix, or per connected component), and the assignment weights (sparse, or the dense
+// reference).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <stdexcept>
 #include <vector>
 
@@ -131,6 +133,85 @@ std::vector<double> PrincipalEigenvector(const SparseAffinity& affinity,
       iterations);
 }
 
+std::vector<AffinityComponent> AffinityComponents(const SparseAffinity& affinity,
+                                                  const MatcherOptions& options) {
+  // Union-find over the entries; a component is named by its lowest candidate.
+  const std::size_t n = affinity.candidates.size();
+  std::vector<int> root(n);
+  std::iota(root.begin(), root.end(), 0);
+  const auto find = [&](int v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  std::vector<char> linked(n, 0);
+  for (const auto& e : affinity.entries) {
+    linked[e.r] = linked[e.c] = 1;
+    const int x = find(int(e.r)), y = find(int(e.c));
+    if (x != y) root[std::max(x, y)] = std::min(x, y);
+  }
+  std::vector<int> component_of(n, -1), local(n, -1);
+  std::vector<AffinityComponent> out;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (!linked[v]) continue;
+    const int r = find(int(v));
+    if (component_of[r] < 0) {
+      component_of[r] = static_cast<int>(out.size());
+      out.emplace_back();
+    }
+    AffinityComponent& c = out[component_of[r]];
+    local[v] = static_cast<int>(c.members.size());
+    c.members.push_back(static_cast<int>(v));
+  }
+  std::vector<std::vector<SparseAffinity::Entry>> entries(out.size());
+  for (const auto& e : affinity.entries) {
+    entries[component_of[find(int(e.r))]].push_back({static_cast<std::uint32_t>(local[e.r]),
+                                                     static_cast<std::uint32_t>(local[e.c]), e.v_rc,
+                                                     e.v_cr});
+  }
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    AffinityComponent& c = out[k];
+    const std::size_t m = c.members.size();
+    const auto mat_vec = [&](const std::vector<double>& x, std::vector<double>* y) {
+      std::fill(y->begin(), y->end(), 0.0);
+      for (const auto& e : entries[k]) {
+        (*y)[e.r] += double(e.v_rc) * x[e.c];
+        (*y)[e.c] += double(e.v_cr) * x[e.r];
+      }
+    };
+    std::vector<double> x(m, 1.0 / std::sqrt(double(m))), y(m);
+    int it = 0;
+    for (; it < options.max_power_iterations; ++it) {
+      mat_vec(x, &y);
+      const double rho = std::inner_product(x.begin(), x.end(), y.begin(), 0.0);
+      double norm = 0.0;
+      for (std::size_t i = 0; i < m; ++i) {
+        y[i] += 0.5 * rho * x[i];
+        norm += y[i] * y[i];
+      }
+      norm = std::sqrt(norm);
+      if (norm == 0.0) break;
+      double change = 0.0;
+      for (std::size_t i = 0; i < m; ++i) {
+        y[i] /= norm;
+        change = std::max(change, std::abs(y[i] - x[i]));
+      }
+      x.swap(y);
+      if (change < options.power_tolerance) {
+        ++it;
+        break;
+      }
+    }
+    mat_vec(x, &y);
+    c.eigenvalue = std::inner_product(x.begin(), x.end(), y.begin(), 0.0);
+    c.vector = std::move(x);
+    c.iterations = it;
+  }
+  std::stable_sort(out.begin(), out.end(), [](const auto& p, const auto& q) {
+    return p.eigenvalue > q.eigenvalue;  // built in order of the first member
+  });
+  return out;
+}
+
 std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
                                       const MatcherOptions& options, int* num_candidates,
                                       int* num_entries) {
@@ -183,6 +264,37 @@ std::vector<double> AssignmentWeights(const ObjectMap& a, const ObjectMap& b,
   if (num_candidates) *num_candidates = static_cast<int>(affinity.candidates.size());
   if (num_entries) *num_entries = static_cast<int>(affinity.entries.size());
   return weights;
+}
+
+std::vector<std::vector<double>> AssignmentHypotheses(const ObjectMap& a, const ObjectMap& b,
+                                                      const MatcherOptions& options,
+                                                      int* num_candidates, int* num_entries) {
+  if (!options.spectral_components || options.dense) {
+    return {AssignmentWeights(a, b, options, num_candidates, num_entries)};
+  }
+  const SparseAffinity affinity = BuildAffinity(a, b, options);
+  if (num_candidates) *num_candidates = static_cast<int>(affinity.candidates.size());
+  if (num_entries) *num_entries = static_cast<int>(affinity.entries.size());
+  const std::vector<AffinityComponent> components = AffinityComponents(affinity, options);
+  std::vector<std::vector<double>> out;
+  if (components.empty() || !(components[0].eigenvalue > 0.0)) return out;
+  const int nb = affinity.n_b;
+  constexpr double kFillIn = 1e-6;  // other components only fill in what the leader leaves
+  for (std::size_t h = 0; h < components.size(); ++h) {
+    if (static_cast<int>(h) >= std::max(1, options.max_component_hypotheses)) break;
+    const double lead = components[h].eigenvalue;
+    if (h > 0 && lead < options.component_tie_ratio * components[0].eigenvalue) break;
+    std::vector<double> w(std::size_t(affinity.n_a) * nb, 0.0);
+    for (std::size_t c = 0; c < components.size(); ++c) {
+      const double scale = c == h ? 1.0 : kFillIn * std::max(0.0, components[c].eigenvalue) / lead;
+      for (std::size_t j = 0; j < components[c].members.size(); ++j) {
+        const auto [i, k] = affinity.candidates[components[c].members[j]];
+        w[std::size_t(i) * nb + k] = scale * components[c].vector[j];
+      }
+    }
+    out.push_back(std::move(w));
+  }
+  return out;
 }
 
 }  // namespace draco::objects

@@ -48,7 +48,26 @@ struct MatcherOptions {
   bool dense = false;  // the reference's dense matrix (small maps only; for comparison)
   int max_power_iterations = 300;
   double power_tolerance = 1e-9;  // max change of a component of the unit eigenvector
-  int min_objects = 5;            // per map (the reference: 5 objects and 10 edges)
+  // Eigenvectors per connected component of the affinity graph (AffinityComponents) instead
+  // of one power iteration over the whole matrix. The whole matrix's top eigenvalue is often
+  // not simple: its graph falls apart into components (candidate pairs linked by consistent
+  // distances), several of similar eigenvalue, and a small component is often bipartite (a
+  // tree), so -lambda is an eigenvalue too and power iteration from the uniform vector
+  // oscillates to its cap; the vector it stops at mixes components, and the sides of a
+  // bipartite one, in proportions set by the start vector. Within a component the top
+  // eigenvalue is simple (Perron-Frobenius) and the shifted iteration converges to its
+  // positive eigenvector. The best component's vector gives the assignment weights (the other
+  // components' vectors, scaled by their eigenvalue and by 1e-6, only fill in assignments it
+  // leaves free); each other component whose eigenvalue is at least component_tie_ratio of
+  // the best's gives a competing hypothesis the same way (at most max_component_hypotheses in
+  // all). Each hypothesis runs the steps below; the best component's answer stands unless a
+  // competing one matches elsewhere (distinct_m, distinct_rad): then kAmbiguous. A competing
+  // component never answers on its own. false: the whole matrix from the uniform vector (the
+  // reference's form).
+  bool spectral_components = false;
+  double component_tie_ratio = 0.9;
+  int max_component_hypotheses = 3;
+  int min_objects = 5;  // per map (the reference: 5 objects and 10 edges)
   int min_edges = 10;
   // Keep assignments whose eigenvector weight is 0 (pairs outside the candidates). The
   // reference keeps all min(n_a, n_b) assignments; they are outliers for RANSAC.
@@ -190,11 +209,36 @@ SparseAffinity BuildAffinity(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
 std::vector<double> PrincipalEigenvector(const SparseAffinity& affinity,
                                          const MatcherOptions& options, int* iterations = nullptr);
 
+// A connected component of the affinity graph (candidates linked by a stored entry) with its
+// principal eigenvector: shifted power iteration x <- (M + rho/2 I) x / |.| restricted to the
+// component (rho: the current Rayleigh quotient; the shift turns an eigenvalue -lambda of a
+// bipartite component into a decaying mode), from the uniform vector, stopping as
+// PrincipalEigenvector does.
+struct AffinityComponent {
+  double eigenvalue = 0.0;     // Rayleigh quotient of `vector`
+  std::vector<int> members;    // candidate indices, ascending
+  std::vector<double> vector;  // unit, >= 0, one value per member
+  int iterations = 0;
+};
+// Every component of at least two candidates, largest eigenvalue first (ties: lowest first
+// member first). Candidates with no entry belong to none.
+std::vector<AffinityComponent> AffinityComponents(const SparseAffinity& affinity,
+                                                  const MatcherOptions& options);
+
 // n_a x n_b row-major assignment weights |eigenvector| (0 outside the candidates); with
 // options.dense the reference's dense matrix is built instead.
 std::vector<double> AssignmentWeights(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                       const MatcherOptions& options, int* num_candidates = nullptr,
                                       int* num_entries = nullptr);
+
+// With options.spectral_components (and not dense): one n_a x n_b weight vector per
+// hypothesis (see MatcherOptions::spectral_components), the best component's first; empty
+// when the affinity has no entries. Otherwise the one vector of AssignmentWeights.
+std::vector<std::vector<double>> AssignmentHypotheses(const msgs::ObjectMap& a,
+                                                      const msgs::ObjectMap& b,
+                                                      const MatcherOptions& options,
+                                                      int* num_candidates = nullptr,
+                                                      int* num_entries = nullptr);
 
 // The rotation of b's map frame in a's that the maps' absolute headings imply
 // (ObjectMap::map_heading_rad); nullopt when either is unknown.
