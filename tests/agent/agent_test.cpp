@@ -1014,6 +1014,65 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   EXPECT_TRUE(std::isnan(off->estimate().map_checks.at(1).heading_gap_rad));
 }
 
+// The two-step PGO's warm start (OptimizerStageOptions::warm_start): the same estimates as
+// solving from scratch, step after step, as the own trajectory grows and loops are added.
+TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
+  std::array<TeamEstimate, 2> first, grown;
+  std::array<int, 2> optimized{};
+  for (const bool warm : {false, true}) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.warm_start = warm;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    TeammateOne mate(&stage);
+    mate.matches.guesses[1].match.T_a_b = {6.0, 0.2, 0.4};  // the loops move it to T_0_1
+    std::vector<msgs::InterRobotLoop> loops;
+    const std::vector<std::pair<int, int>> pairs{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    loops[1].T_ownkf_teammatekf.x_m += 0.05;  // loops that disagree a little
+    loops[3].T_ownkf_teammatekf.yaw_rad -= 0.01;
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    optimized[warm] += st.optimized;
+    first[warm] = stage.estimate();
+    // Four more own keyframes and a loop from one of them: solved again (a changed input
+    // is never skipped), every own keyframe placed.
+    const msgs::KeyframeTrajectory longer = OwnStraightLine(&stage, 12);
+    loops.push_back(mate.Loop(longer, 21, 10, 7));
+    st = {};
+    stage.Step(40.0, loops, mate.matches, &st);
+    optimized[warm] += st.optimized;
+    grown[warm] = stage.estimate();
+  }
+  EXPECT_EQ(optimized[0], 2);
+  EXPECT_EQ(optimized[1], 2);
+  for (const auto* e : {&first, &grown}) {
+    const auto& cold = (*e)[0];
+    const auto& warm = (*e)[1];
+    ASSERT_EQ(cold.trajectories.size(), 2u);
+    ASSERT_EQ(warm.trajectories.size(), 2u);
+    for (const auto& [r, t] : cold.trajectories) {
+      const auto& w = warm.trajectories.at(r);
+      ASSERT_EQ(t.size(), w.size()) << r;
+      for (std::size_t k = 0; k < t.size(); ++k) {
+        EXPECT_EQ(t[k].index, w[k].index);
+        EXPECT_NEAR(t[k].T_map_kf.x_m, w[k].T_map_kf.x_m, 1e-4) << r << " " << k;
+        EXPECT_NEAR(t[k].T_map_kf.y_m, w[k].T_map_kf.y_m, 1e-4) << r << " " << k;
+        EXPECT_NEAR(t[k].T_map_kf.yaw_rad, w[k].T_map_kf.yaw_rad, 1e-5) << r << " " << k;
+      }
+    }
+    const Pose2 a = cold.T_own_teammate.at(1), b = warm.T_own_teammate.at(1);
+    EXPECT_NEAR(a.x_m, b.x_m, 1e-4);
+    EXPECT_NEAR(a.y_m, b.y_m, 1e-4);
+    EXPECT_NEAR(a.yaw_rad, b.yaw_rad, 1e-5);
+  }
+  EXPECT_EQ(grown[1].trajectories.at(0).size(), 12u);
+  EXPECT_NEAR(grown[1].T_own_teammate.at(1).x_m, 5.0, 0.05);  // at T_0_1, not the guess
+}
+
 TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   // The loops place robot 1 with a rotation of 0.3 rad (TeammateOne). Map headings whose
   // difference is 0.3 rad (give or take the AHRS's error) allow it; headings that say the

@@ -67,6 +67,7 @@ void OptimizerStage::Forget(int robot) {
   mate_coverage_.erase(robot);
   estimate_.trajectories.erase(robot);
   estimate_.T_own_teammate.erase(robot);
+  warm_.erase(robot);
   own_graph_changed_ = true;  // the estimate is recomputed without it
 }
 
@@ -405,6 +406,11 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   std::map<int, std::vector<Pose2>> placed;
   bool solved = false;
   if (pgo) {
+    if (options_.warm_start) {
+      for (const auto& [robot, w] : warm_) {
+        if (problem.robots.count(robot)) problem.warm[robot] = w;
+      }
+    }
     try {
       const auto e = team::TwoStepPgo(problem, own_id, options_.two_step);
       for (const auto& [robot, poses] : e.trajectories) {
@@ -412,8 +418,26 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
         for (const auto& p : poses) v.push_back(FromPg(p));
       }
       solved = true;
+      warm_.clear();
+      if (options_.warm_start) {
+        std::set<int> with_loops{own_id};
+        for (const auto& l : problem.loops) {
+          with_loops.insert(l.own_robot);
+          with_loops.insert(l.teammate_robot);
+        }
+        for (const int robot : with_loops) {
+          const auto t = e.trajectories.find(robot);
+          const auto r = problem.robots.find(robot);
+          if (t == e.trajectories.end() || r == problem.robots.end()) continue;
+          const auto l = e.local_teammate_poses.find(robot);
+          warm_[robot] = {
+              r->second.poses, t->second,
+              l != e.local_teammate_poses.end() ? l->second : std::map<int, pg::Pose2>{}};
+        }
+      }
     } catch (const std::exception&) {
       placed.clear();  // the guess placement below
+      warm_.clear();
     }
     last_optimize_s_ = now_s;
     accepted_changed_ = false;

@@ -615,6 +615,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
     spec.Param("optimize_period_s", &o_.optimize_period_s,
                {.doc = "two-step PGO at most this often", .unit = "s", .min = 0.0});
+    spec.Param("warm_start", &o_.warm_start,
+               {.doc = "start each PGO from the previous one's solution (fewer iterations; "
+                       "where the robust cost has several minima, the one nearer the previous "
+                       "estimate)"});
     spec.Param("place_unverified_teammates", &o_.place_unverified_teammates,
                {.doc = "place teammates by the map-to-map guess before any loop is accepted"});
     spec.Param("global_anchor", &global_anchor_,

@@ -1,5 +1,6 @@
 #include "draco/team/team_pgo.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -81,9 +82,27 @@ Pose2 RequireGuess(const TeamProblem& problem, int a, int b) {
   return T_a_b;
 }
 
-void AddRobot(PoseGraph2d& graph, int robot, const RobotGraph& rg, const Pose2& T_own_robot) {
+// Where keyframe k of a robot starts: from the problem's warm start when it has one for the
+// robot, else at T_own_robot * poses[k].
+Pose2 Initial(const TeamProblem& problem, int robot, const RobotGraph& rg, std::size_t k,
+              const Pose2& T_own_robot) {
+  const auto it = problem.warm.find(robot);
+  if (it != problem.warm.end()) {
+    const WarmStart& w = it->second;
+    const std::size_t m = std::min(w.input.size(), w.solution.size());
+    if (m > 0) {
+      if (k < m) return Compose(w.solution[k], Between(w.input[k], rg.poses[k]));
+      return Compose(Compose(w.solution[m - 1], Between(w.input[m - 1], rg.poses[m - 1])),
+                     Between(rg.poses[m - 1], rg.poses[k]));
+    }
+  }
+  return Compose(T_own_robot, rg.poses[k]);
+}
+
+void AddRobot(PoseGraph2d& graph, const TeamProblem& problem, int robot, const RobotGraph& rg,
+              const Pose2& T_own_robot) {
   for (std::size_t k = 0; k < rg.poses.size(); ++k) {
-    graph.AddPose(Id(robot, static_cast<int>(k)), Compose(T_own_robot, rg.poses[k]));
+    graph.AddPose(Id(robot, static_cast<int>(k)), Initial(problem, robot, rg, k, T_own_robot));
   }
   for (const ChainFactor& f : rg.factors) {
     graph.AddBetween(Id(robot, f.from), Id(robot, f.to), f.T_from_to, f.information,
@@ -152,8 +171,11 @@ TeamEstimate TwoStepPgo(const TeamProblem& problem, int own_robot, const TwoStep
 
   // Step 1: own graph + robust loops to the touched teammate poses.
   PoseGraph2d local;
-  AddRobot(local, own_robot, own, Pose2{});
-  if (!own.poses.empty()) local.SetPoseConstant(Id(own_robot, 0));
+  AddRobot(local, problem, own_robot, own, Pose2{});
+  if (!own.poses.empty()) {
+    local.SetPose(Id(own_robot, 0), own.poses[0]);  // the gauge, whatever the warm start
+    local.SetPoseConstant(Id(own_robot, 0));
+  }
   std::map<int, Pose2> guesses;          // teammate -> T_own_teammate
   std::map<int, std::set<int>> touched;  // teammate -> keyframes
   std::map<int, const msgs::InterRobotLoop*> first_loop;
@@ -166,7 +188,18 @@ TeamEstimate TwoStepPgo(const TeamProblem& problem, int own_robot, const TwoStep
     if (!guesses.contains(mate)) guesses[mate] = RequireGuess(problem, own_robot, mate);
     const PoseId mate_id = Id(mate, mate_kf);
     if (!local.HasPose(mate_id)) {
-      local.AddPose(mate_id, Compose(guesses[mate], Robot(problem, mate).poses[mate_kf]));
+      const RobotGraph& mate_graph = Robot(problem, mate);
+      Pose2 initial =
+          Initial(problem, mate, mate_graph, static_cast<std::size_t>(mate_kf), guesses[mate]);
+      if (const auto w = problem.warm.find(mate); w != problem.warm.end()) {
+        const auto it = w->second.local.find(mate_kf);
+        if (it != w->second.local.end() && mate_kf < static_cast<int>(w->second.input.size())) {
+          initial =
+              Compose(it->second, Between(w->second.input[static_cast<std::size_t>(mate_kf)],
+                                          mate_graph.poses[static_cast<std::size_t>(mate_kf)]));
+        }
+      }
+      local.AddPose(mate_id, initial);
       touched[mate].insert(mate_kf);
     }
     first_loop.try_emplace(mate, &loop);
@@ -181,6 +214,10 @@ TeamEstimate TwoStepPgo(const TeamProblem& problem, int own_robot, const TwoStep
   for (const auto& [mate, kfs] : touched)
     est.touched_teammate_poses += static_cast<int>(kfs.size());
   est.local = local.Optimize(options.solver);
+  for (const auto& [mate, kfs] : touched) {
+    auto& poses = est.local_teammate_poses[mate];
+    for (const int kf : kfs) poses[kf] = local.Pose(Id(mate, kf));
+  }
   auto& own_traj = est.trajectories[own_robot];
   for (std::size_t k = 0; k < own.poses.size(); ++k) {
     own_traj.push_back(local.Pose(Id(own_robot, static_cast<int>(k))));
@@ -228,7 +265,7 @@ TeamEstimate TwoStepPgo(const TeamProblem& problem, int own_robot, const TwoStep
     }
     PoseGraph2d global;
     for (std::size_t k = 0; k < rg.poses.size(); ++k) {
-      global.AddPose(Id(robot, static_cast<int>(k)), Compose(T_own_robot, rg.poses[k]));
+      global.AddPose(Id(robot, static_cast<int>(k)), Initial(problem, robot, rg, k, T_own_robot));
     }
     const Matrix3 chain_info = InformationFromSigmas(
         options.chain_sigma_xy_m, options.chain_sigma_xy_m, options.chain_sigma_yaw_rad);
@@ -262,10 +299,13 @@ TeamEstimate FullPgo(const TeamProblem& problem, int own_robot, const FullOption
   for (const auto& [robot, rg] : problem.robots) {
     Pose2 T_own_robot;
     if (robot != own_robot && !MapGuess(problem, own_robot, robot, &T_own_robot)) continue;
-    AddRobot(graph, robot, rg, T_own_robot);
+    AddRobot(graph, problem, robot, rg, T_own_robot);
     robots.push_back(robot);
   }
-  if (!own.poses.empty()) graph.SetPoseConstant(Id(own_robot, 0));
+  if (!own.poses.empty()) {
+    graph.SetPose(Id(own_robot, 0), own.poses[0]);  // the gauge, whatever the warm start
+    graph.SetPoseConstant(Id(own_robot, 0));
+  }
   for (const msgs::InterRobotLoop& loop : problem.loops) {
     CheckLoop(problem, loop);
     const PoseId i = Id(loop.own_robot, loop.own_keyframe);

@@ -383,6 +383,12 @@ struct OptimizerStageOptions {
   int robot_id = 0;
   team::TwoStepOptions two_step;
   double optimize_period_s = 10.0;
+  // Each two-step PGO starts from the previous one's solution (team::TeamProblem::warm) for
+  // the own robot and the teammates with loops in it, not from the local-SLAM poses and the
+  // map guesses: fewer iterations; the same estimate to the solver's tolerance where the
+  // robust loops' cost has one minimum, else the minimum nearest the previous estimate (marina
+  // in process: the same loops and verdicts, final errors 0.00-0.19 m apart, smaller).
+  bool warm_start = true;
   // Place teammates in the estimate by the map-to-map guess alone, before any loop with them
   // is accepted (false: only teammates with accepted loops are placed).
   bool place_unverified_teammates = false;
@@ -525,6 +531,7 @@ class OptimizerStage {
   bool accepted_changed_ = false;
   double last_optimize_s_;
   bool optimized_once_ = false;
+  std::map<int, team::WarmStart> warm_;  // the last PGO's robots with loops, and the own one
   TeamEstimate estimate_;
   std::map<int, std::vector<msgs::Heartbeat::Transform>> shared_;  // by sender
   std::set<int> loop_verified_;                                    // after the last step

@@ -53,10 +53,25 @@ struct RobotGraph {
 // its between factors are kept, priors dropped.
 RobotGraph FromPoseGraph(const pose_graph::PoseGraph2d& graph);
 
+// A previous solve of one robot to start the next from (TwoStepPgo): its poses then (its own
+// map frame, RobotGraph::poses) and the trajectory the solve gave them (the own map frame).
+struct WarmStart {
+  std::vector<Pose2> input;
+  std::vector<Pose2> solution;
+  std::map<int, Pose2> local;  // a teammate's keyframes in the local step then (its estimate)
+};
+
 struct TeamProblem {
   std::map<int, RobotGraph> robots;           // by robot id
   std::vector<msgs::InterRobotLoop> loops;    // accepted inter-robot loops, any direction
   std::map<std::pair<int, int>, Pose2> maps;  // {a, b} -> T_a_b map-to-map guess
+  // Optional: initial values from a previous solve instead of the own poses and the map
+  // guesses. Keyframe k starts at solution[k] (a teammate's local-step pose at local[k]) moved
+  // as its input moved since (* Between(input[k], poses[k])); keyframes past the previous
+  // solve follow the last one by their chain. The own keyframe 0 (the gauge) stays at its
+  // pose. Fewer iterations when little changed; the same solution to the solver's tolerance
+  // where the robust cost has one minimum, else possibly another (the one nearer the start).
+  std::map<int, WarmStart> warm;
 };
 
 // T_a_b from the guesses: direct, inverted, or chained through other robots (breadth-first).
@@ -103,6 +118,8 @@ struct TeamEstimate {
   pose_graph::SolveSummary local;
   std::map<int, pose_graph::SolveSummary> global;
   int touched_teammate_poses = 0;  // two-step: teammate variables of the local step
+  // Two-step: the local step's estimate of those poses, by teammate and keyframe.
+  std::map<int, std::map<int, Pose2>> local_teammate_poses;
   int loops_used = 0;
   double local_time_s = 0.0;   // building + solving
   double global_time_s = 0.0;  // all teammates
