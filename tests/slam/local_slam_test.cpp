@@ -321,27 +321,33 @@ TEST(LocalSlam, HeadingBiasStateAgreesWithDeadReckoningAlone) {
   o.loop_closure = false;
   o.landmarks = false;
   o.heading_bias_sigma_rad = 0.15;
-  LocalSlam slam(o);
-  for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
-  // Dead-reckoning factors and its own heading agree: the bias nodes stay out of the way and
-  // the keyframe ids are unchanged.
-  const auto t = slam.Trajectory();
-  ASSERT_EQ(t.size(), mission.keyframes.size());
-  for (const auto& k : t) {
-    EXPECT_NEAR(k.T_map_kf.x_m, k.T_odom_kf.x_m, 1e-2);
-    EXPECT_NEAR(k.T_map_kf.y_m, k.T_odom_kf.y_m, 1e-2);
-    EXPECT_NEAR(std::remainder(k.T_map_kf.yaw_rad - k.T_odom_kf.yaw_rad, 2 * M_PI), 0.0, 1e-3);
+  // Both bias models: the per-keyframe prior with a random walk, and the exact Gauss-Markov
+  // transition (three-pose yaw factors).
+  for (const bool gauss_markov : {false, true}) {
+    SCOPED_TRACE(gauss_markov ? "Gauss-Markov" : "random walk");
+    o.heading_bias_gauss_markov = gauss_markov;
+    LocalSlam slam(o);
+    for (const auto& kf : mission.keyframes) slam.AddKeyframe(kf, nullptr);
+    // Dead-reckoning factors and its own heading agree: the bias nodes stay out of the way and
+    // the keyframe ids are unchanged.
+    const auto t = slam.Trajectory();
+    ASSERT_EQ(t.size(), mission.keyframes.size());
+    for (const auto& k : t) {
+      EXPECT_NEAR(k.T_map_kf.x_m, k.T_odom_kf.x_m, 1e-2);
+      EXPECT_NEAR(k.T_map_kf.y_m, k.T_odom_kf.y_m, 1e-2);
+      EXPECT_NEAR(std::remainder(k.T_map_kf.yaw_rad - k.T_odom_kf.yaw_rad, 2 * M_PI), 0.0, 1e-3);
+    }
+    // pose_graph.g2o: the keyframes only; the bias nodes (ids < 0) and their factors are left
+    // out with a note, since g2o's SE2 types do not model them.
+    std::istringstream text(slam.ToG2oText());
+    const auto g2o = pose_graph::ParseG2o(text, "pose_graph.g2o");
+    ASSERT_EQ(g2o.vertices.size(), mission.keyframes.size());
+    for (const auto& v : g2o.vertices) EXPECT_GE(v.id, 0);
+    for (const auto& e : g2o.edges) EXPECT_TRUE(e.i >= 0 && e.j >= 0);
+    EXPECT_NE(slam.ToG2oText().find("# left out: " + std::to_string(mission.keyframes.size() + 1) +
+                                    " auxiliary nodes"),
+              std::string::npos);
   }
-  // pose_graph.g2o: the keyframes only; the bias nodes (ids < 0) and their factors are left
-  // out with a note, since g2o's SE2 types do not model them.
-  std::istringstream text(slam.ToG2oText());
-  const auto g2o = pose_graph::ParseG2o(text, "pose_graph.g2o");
-  ASSERT_EQ(g2o.vertices.size(), mission.keyframes.size());
-  for (const auto& v : g2o.vertices) EXPECT_GE(v.id, 0);
-  for (const auto& e : g2o.edges) EXPECT_TRUE(e.i >= 0 && e.j >= 0);
-  EXPECT_NE(slam.ToG2oText().find("# left out: " + std::to_string(mission.keyframes.size() + 1) +
-                                  " auxiliary nodes"),
-            std::string::npos);
 }
 
 TEST(LandmarkObservations, KeepsCompactIsolatedClustersOnly) {

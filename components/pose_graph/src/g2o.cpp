@@ -208,7 +208,7 @@ PoseGraph2d ToPoseGraph(const G2oGraph& g, FactorKind kind, ErrorConvention conv
 G2oGraph ToG2o(const PoseGraph2d& graph) {
   G2oGraph g;
   PoseId max_id = -1;
-  std::size_t aux_poses = 0, aux_factors = 0;
+  std::size_t aux_poses = 0, aux_factors = 0, yaw_gauss_markov = 0;
   for (const PoseId id : graph.PoseIds()) {
     if (id < 0) {
       ++aux_poses;
@@ -218,8 +218,10 @@ G2oGraph ToG2o(const PoseGraph2d& graph) {
     max_id = std::max(max_id, id);
   }
   for (const Factor& f : graph.Factors()) {
-    if (f.i < 0 || f.j < 0) {
+    if (f.i < 0 || f.j < 0 || (f.yaw_gauss_markov && f.yaw_gauss_markov->mean < 0)) {
       ++aux_factors;
+    } else if (f.yaw_gauss_markov) {
+      ++yaw_gauss_markov;  // not an SE(2) relation
     } else if (f.kind == FactorKind::kPrior) {
       g.priors.push_back({f.i, f.measurement, f.information});
     } else {
@@ -248,6 +250,10 @@ G2oGraph ToG2o(const PoseGraph2d& graph) {
                          "heading-bias states, yaw-only random walks g2o's SE2 types do not " +
                          "model) and the " + std::to_string(aux_factors + aux_observations) +
                          " factors that name them; the poses hold their effect");
+  }
+  if (yaw_gauss_markov > 0) {
+    g.comments.push_back("left out: " + std::to_string(yaw_gauss_markov) +
+                         " yaw Gauss-Markov factors (three poses' yaws, no g2o SE2 type)");
   }
   if (with_radius > 0) {
     g.comments.push_back(std::to_string(with_radius) +

@@ -106,7 +106,7 @@ std::size_t PoseGraph2d::AddPrior(PoseId id, const Pose2& T_world_pose, const Ma
       std::make_unique<internal::PriorCost>(T_world_pose, information, m.convention);  // validates
   t.loss = MakeLoss(loss);
   const std::size_t k = m.factors.size();
-  m.factors.push_back({FactorKind::kPrior, id, id, T_world_pose, information, loss});
+  m.factors.push_back({FactorKind::kPrior, id, id, T_world_pose, information, loss, std::nullopt});
   m.terms.push_back(std::move(t));
   m.nodes[node].factors.push_back(k);
   ++m.num_priors;
@@ -124,10 +124,31 @@ std::size_t PoseGraph2d::AddBetween(PoseId i, PoseId j, const Pose2& T_i_j,
   t.cost = std::make_unique<internal::BetweenCost>(T_i_j, information, m.convention);
   t.loss = MakeLoss(loss);
   const std::size_t k = m.factors.size();
-  m.factors.push_back({kind, i, j, T_i_j, information, loss});
+  m.factors.push_back({kind, i, j, T_i_j, information, loss, std::nullopt});
   m.terms.push_back(std::move(t));
   m.nodes[ni].factors.push_back(k);
   m.nodes[nj].factors.push_back(k);
+  return k;
+}
+
+std::size_t PoseGraph2d::AddYawGaussMarkov(PoseId mean, PoseId previous, PoseId current, double phi,
+                                           double sigma_rad, RobustLoss loss) {
+  auto& m = *impl_;
+  if (mean == previous || mean == current || previous == current) {
+    throw std::invalid_argument("yaw Gauss-Markov factor: the three poses must differ");
+  }
+  const std::size_t nm = m.Index(mean), nb = m.Index(previous), nc = m.Index(current);
+  Impl::FactorTerms t;
+  t.cost = std::make_unique<internal::YawGaussMarkovCost>(phi, sigma_rad);  // validates
+  t.loss = MakeLoss(loss);
+  const std::size_t k = m.factors.size();
+  m.factors.push_back({FactorKind::kOdometry, previous, current, Pose2{},
+                       Diagonal3(0.0, 0.0, 1.0 / (sigma_rad * sigma_rad)), loss,
+                       YawGaussMarkov{mean, phi, sigma_rad}});
+  m.terms.push_back(std::move(t));
+  m.nodes[nm].factors.push_back(k);
+  m.nodes[nb].factors.push_back(k);
+  m.nodes[nc].factors.push_back(k);
   return k;
 }
 

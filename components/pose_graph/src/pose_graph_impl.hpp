@@ -4,6 +4,7 @@
 // the covariances in pose_graph_covariance.cpp.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -104,11 +105,30 @@ struct PoseGraph2d::Impl {
 
   double FactorChi2(const Factor& f) const {
     const Pose2 a = internal::ToPose(nodes[Index(f.i)].x);
+    if (f.yaw_gauss_markov) {
+      const auto& g = *f.yaw_gauss_markov;
+      const double r = internal::YawGaussMarkovError(internal::ToPose(nodes[Index(g.mean)].x), a,
+                                                     internal::ToPose(nodes[Index(f.j)].x), g.phi) /
+                       g.sigma_rad;
+      return r * r;
+    }
     if (f.kind == FactorKind::kPrior) {
       return internal::Chi2(internal::PriorError(a, f.measurement, convention), f.information);
     }
     const Pose2 b = internal::ToPose(nodes[Index(f.j)].x);
     return internal::Chi2(internal::BetweenError(a, b, f.measurement, convention), f.information);
+  }
+
+  // Node indices of a factor's poses, newest and oldest (a yaw Gauss-Markov factor has three).
+  std::size_t NewestNode(const Factor& f) const {
+    std::size_t n = std::max(index.at(f.i), index.at(f.j));
+    if (f.yaw_gauss_markov) n = std::max(n, index.at(f.yaw_gauss_markov->mean));
+    return n;
+  }
+  std::size_t OldestNode(const Factor& f) const {
+    std::size_t n = std::min(index.at(f.i), index.at(f.j));
+    if (f.yaw_gauss_markov) n = std::min(n, index.at(f.yaw_gauss_markov->mean));
+    return n;
   }
 
   std::size_t PointIndex(PointId id) const {
@@ -176,6 +196,11 @@ struct PoseGraph2d::Impl {
     Node& a = nodes[index.at(f.i)];
     if (f.kind == FactorKind::kPrior) {
       p.AddResidualBlock(terms[k].cost.get(), terms[k].loss.get(), a.x.data());
+    } else if (f.yaw_gauss_markov) {
+      Node& mean = nodes[index.at(f.yaw_gauss_markov->mean)];
+      Node& b = nodes[index.at(f.j)];
+      p.AddResidualBlock(terms[k].cost.get(), terms[k].loss.get(), mean.x.data(), a.x.data(),
+                         b.x.data());
     } else {
       Node& b = nodes[index.at(f.j)];
       p.AddResidualBlock(terms[k].cost.get(), terms[k].loss.get(), a.x.data(), b.x.data());

@@ -88,7 +88,7 @@ std::size_t PoseGraph2d::InitializeFromSpanningTree(std::optional<PoseId> root) 
     const Pose2 T_w_u = ToPose(m.nodes[u].x);
     for (const std::size_t k : m.nodes[u].factors) {
       const Factor& f = m.factors[k];
-      if (f.kind == FactorKind::kPrior) continue;
+      if (f.kind == FactorKind::kPrior || f.yaw_gauss_markov) continue;
       const bool forward = m.index.at(f.i) == u;
       const std::size_t v = m.index.at(forward ? f.j : f.i);
       if (seen[v]) continue;
@@ -134,10 +134,8 @@ SolveSummary PoseGraph2d::OptimizeWindow(int window_size, const SolverOptions& o
   std::vector<std::size_t> window_factors;
   for (std::size_t u = first; u < n; ++u) {
     for (const std::size_t k : m.nodes[u].factors) {
-      const Factor& f = m.factors[k];
       // Count a factor at its newest window end only, so it is listed once.
-      const std::size_t a = m.index.at(f.i), b = m.index.at(f.j);
-      if (std::max(a, b) == u) window_factors.push_back(k);
+      if (m.NewestNode(m.factors[k]) == u) window_factors.push_back(k);
     }
   }
   // Points observed from the window are free, with every observation of them (poses outside
@@ -205,8 +203,7 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
   if (!full && options.full_solve_on_loop) {
     const std::size_t first = n - w;
     for (std::size_t k = m.factors_at_last_solve; k < m.factors.size() && !full; ++k) {
-      const Factor& f = m.factors[k];
-      if (std::min(m.index.at(f.i), m.index.at(f.j)) < first) full = true;
+      if (m.OldestNode(m.factors[k]) < first) full = true;
     }
     // A point re-observed after it left the window closes a loop through the point.
     for (std::size_t k = m.observations_at_last_solve; k < m.observations.size() && !full; ++k) {

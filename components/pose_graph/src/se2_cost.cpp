@@ -125,6 +125,33 @@ bool PriorCost::Evaluate(double const* const* parameters, double* residuals,
   return true;
 }
 
+YawGaussMarkovCost::YawGaussMarkovCost(double phi, double sigma_rad)
+    : phi_(phi), inv_sigma_(1.0 / sigma_rad) {
+  if (!(std::abs(phi) <= 1.0)) throw std::invalid_argument("yaw Gauss-Markov: |phi| must be <= 1");
+  if (!(sigma_rad > 0.0)) throw std::invalid_argument("yaw Gauss-Markov: sigma must be positive");
+}
+
+bool YawGaussMarkovCost::Evaluate(double const* const* parameters, double* residuals,
+                                  double** jacobians) const {
+  const double* m = parameters[0];
+  const double* b = parameters[1];
+  const double* c = parameters[2];
+  residuals[0] = inv_sigma_ * (NormalizeAngle(c[2] - m[2]) - phi_ * NormalizeAngle(b[2] - m[2]));
+  if (jacobians == nullptr) return true;
+  const double d[3] = {(phi_ - 1.0) * inv_sigma_, -phi_ * inv_sigma_, inv_sigma_};
+  for (int block = 0; block < 3; ++block) {
+    if (jacobians[block] == nullptr) continue;
+    jacobians[block][0] = 0.0;
+    jacobians[block][1] = 0.0;
+    jacobians[block][2] = d[block];
+  }
+  return true;
+}
+
+double YawGaussMarkovError(const Pose2& m, const Pose2& b, const Pose2& c, double phi) {
+  return NormalizeAngle(c.yaw_rad - m.yaw_rad) - phi * NormalizeAngle(b.yaw_rad - m.yaw_rad);
+}
+
 std::array<double, 3> BetweenError(const Pose2& a, const Pose2& b, const Pose2& z,
                                    ErrorConvention convention) {
   const double frame_yaw = convention == ErrorConvention::kG2o ? z.yaw_rad : 0.0;

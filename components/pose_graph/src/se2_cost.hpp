@@ -70,6 +70,23 @@ class PriorCost final : public ceres::SizedCostFunction<3, 3> {
   std::array<double, 9> sqrt_info_;
 };
 
+// Yaw Gauss-Markov factor on poses m (mean), b (previous), c (current):
+//   r = (wrap(c.yaw - m.yaw) - phi * wrap(b.yaw - m.yaw)) / sigma,
+//   dr/dm.yaw = (phi - 1) / sigma, dr/db.yaw = -phi / sigma, dr/dc.yaw = 1 / sigma, and 0 for
+// every x, y.
+class YawGaussMarkovCost final : public ceres::SizedCostFunction<1, 3, 3, 3> {
+ public:
+  YawGaussMarkovCost(double phi, double sigma_rad);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  double phi_;
+  double inv_sigma_;
+};
+// Its unwhitened error (wrap(c.yaw - m.yaw) - phi * wrap(b.yaw - m.yaw)).
+double YawGaussMarkovError(const Pose2& m, const Pose2& b, const Pose2& c, double phi);
+
 // Point observation: pose a = T_w_i, landmark l (world frame), measurement z = the landmark in
 // frame i: e = R(a.yaw)^T (l - a.p) - z, r = L * e with Omega = L^T L (2x2).
 //   de/da.p = -R^T, de/da.yaw = dR(a.yaw)^T/dyaw (l - a.p), de/dl = R^T.

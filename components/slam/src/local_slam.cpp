@@ -346,17 +346,31 @@ struct LocalSlam::Impl {
     graph.AddPose(BiasId(k), anchor);
     graph.AddPrior(BiasId(k), anchor, pg::Diagonal3(1.0, 1.0, tiny));
     const msgs::Keyframe& first = keyframes.front();
-    graph.AddBetween(kBiasMeanId, BiasId(k),
-                     {kf.T_odom_body.x_m - first.T_odom_body.x_m,
-                      kf.T_odom_body.y_m - first.T_odom_body.y_m, 0.0},
-                     pg::Diagonal3(tiny, tiny, 1.0 / (sb * sb)), pg::FactorKind::kOdometry);
+    if (k == 0 || !o.heading_bias_gauss_markov) {
+      // Gauss-Markov model: beta_0 - mean ~ N(0, sb^2) only (the stationary distribution).
+      graph.AddBetween(kBiasMeanId, BiasId(k),
+                       {kf.T_odom_body.x_m - first.T_odom_body.x_m,
+                        kf.T_odom_body.y_m - first.T_odom_body.y_m, 0.0},
+                       pg::Diagonal3(tiny, tiny, 1.0 / (sb * sb)), pg::FactorKind::kOdometry);
+    }
     const double sm = o.heading_meas_sigma_rad;
     graph.AddBetween(BiasId(k), k, {0.0, 0.0, kf.T_odom_body.yaw_rad},
-                     pg::Diagonal3(tiny, tiny, 1.0 / (sm * sm)), pg::FactorKind::kOdometry);
+                     pg::Diagonal3(tiny, tiny, 1.0 / (sm * sm)), pg::FactorKind::kOdometry,
+                     o.heading_meas_cauchy_scale > 0
+                         ? pg::RobustLoss{pg::LossKind::kCauchy, o.heading_meas_cauchy_scale}
+                         : pg::RobustLoss{});
     if (k > 0) {
       const msgs::Keyframe& prev = keyframes[static_cast<std::size_t>(k - 1)];
       const double dt = std::max(1e-3, kf.time_s - prev.time_s);
-      const double sw = sb * std::sqrt(2.0 * dt / std::max(1e-3, o.heading_bias_tau_s));
+      const double tau = std::max(1e-3, o.heading_bias_tau_s);
+      if (o.heading_bias_gauss_markov) {
+        // Exact AR(1): (beta_k - mean) - phi (beta_k-1 - mean), sigma sb sqrt(1 - phi^2).
+        const double phi = std::exp(-dt / tau);
+        const double sw = sb * std::sqrt(std::max(1e-12, 1.0 - phi * phi));
+        graph.AddYawGaussMarkov(kBiasMeanId, BiasId(k - 1), BiasId(k), phi, sw);
+        return;
+      }
+      const double sw = sb * std::sqrt(2.0 * dt / tau);
       graph.AddBetween(BiasId(k - 1), BiasId(k),
                        {kf.T_odom_body.x_m - prev.T_odom_body.x_m,
                         kf.T_odom_body.y_m - prev.T_odom_body.y_m, 0.0},

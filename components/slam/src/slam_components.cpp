@@ -69,6 +69,12 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "correlation time of the AHRS heading error", .unit = "s", .min = 1e-3});
     spec.Param("heading_meas_sigma_rad", &o_.heading_meas_sigma_rad,
                {.doc = "white noise of the AHRS heading", .unit = "rad", .min = 1e-6});
+    spec.Param("heading_bias_gauss_markov", &o_.heading_bias_gauss_markov,
+               {.doc = "exact Gauss-Markov (AR(1)) heading-error model, no per-keyframe prior"});
+    spec.Param("heading_meas_cauchy_scale", &o_.heading_meas_cauchy_scale,
+               {.doc = "Cauchy loss on the AHRS heading measurement (0: none)",
+                .unit = "sigma",
+                .min = 0});
     spec.Param("heading_prior_cauchy_scale", &o_.heading_prior_cauchy_scale,
                {.doc = "Cauchy loss on the heading prior (0: none)", .unit = "sigma", .min = 0});
     spec.Param(

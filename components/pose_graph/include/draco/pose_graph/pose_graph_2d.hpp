@@ -9,6 +9,14 @@
 // minimises sum over factors of rho(chi2) / 2, where rho is the robust loss (identity for none). A
 // prior on pose i with measurement Z = T_w_i is the same with T_w_i in place of T_i_j.
 //
+// Yaw Gauss-Markov factor (AddYawGaussMarkov): yaw only, on three poses, for a time-correlated
+// heading-error state: with the deviations d = wrap(yaw - mean.yaw) of the previous and the
+// current pose, r = (d_current - phi * d_previous) / sigma (chi2 = r^2). With phi = exp(-dt / tau)
+// and sigma = s * sqrt(1 - phi^2) it is the exact discretisation of a stationary first-order
+// Gauss-Markov process of sigma s and correlation time tau about the mean pose's yaw. x and y
+// of the three poses do not enter; it is not an SE(2) relation (the spanning-tree
+// initialisation and the g2o export skip it).
+//
 // Gauge: when the graph has neither a prior nor a pose held constant, the first pose added
 // is held constant during solves (the problem is otherwise rank-deficient).
 //
@@ -55,13 +63,23 @@ struct RobustLoss {
   double scale = 1.0;
 };
 
+// The third pose and the parameters of a yaw Gauss-Markov factor (see the top of this file).
+struct YawGaussMarkov {
+  PoseId mean = 0;
+  double phi = 1.0;
+  double sigma_rad = 1.0;
+};
+
 struct Factor {
   FactorKind kind = FactorKind::kOdometry;
-  PoseId i = 0;       // the pose of a prior, or the from-pose of a between factor
-  PoseId j = 0;       // the to-pose of a between factor (== i for a prior)
-  Pose2 measurement;  // T_i_j for a between factor, T_world_i for a prior
-  Matrix3 information = Diagonal3(1.0, 1.0, 1.0);
+  PoseId i = 0;       // the pose of a prior, the from-pose of a between factor, or the
+                      // previous pose of a yaw Gauss-Markov factor
+  PoseId j = 0;       // the to-pose of a between factor or the current pose of a yaw
+                      // Gauss-Markov factor (== i for a prior)
+  Pose2 measurement;  // T_i_j for a between factor, T_world_i for a prior (zero otherwise)
+  Matrix3 information = Diagonal3(1.0, 1.0, 1.0);  // (0, 0, 1 / sigma^2) for yaw Gauss-Markov
   RobustLoss loss;
+  std::optional<YawGaussMarkov> yaw_gauss_markov;  // set for a yaw Gauss-Markov factor only
 };
 
 // Optional radius state of a point landmark. A sonar sees a round object's near face, so the
@@ -158,6 +176,11 @@ class PoseGraph2d {
                        RobustLoss loss = {});
   std::size_t AddBetween(PoseId i, PoseId j, const Pose2& T_i_j, const Matrix3& information,
                          FactorKind kind = FactorKind::kOdometry, RobustLoss loss = {});
+  // Yaw Gauss-Markov factor (see the top of this file); kind kOdometry. Throws
+  // std::invalid_argument unless the three ids differ, |phi| <= 1 and sigma_rad > 0;
+  // std::out_of_range on an unknown id.
+  std::size_t AddYawGaussMarkov(PoseId mean, PoseId previous, PoseId current, double phi,
+                                double sigma_rad, RobustLoss loss = {});
   const std::vector<Factor>& Factors() const;
 
   // Point landmarks (their own id space). AddPoint throws std::invalid_argument on a duplicate

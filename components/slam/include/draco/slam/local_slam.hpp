@@ -45,6 +45,15 @@ struct LocalSlamOptions {
   double heading_bias_sigma_rad = 0.0;
   double heading_bias_tau_s = 120.0;
   double heading_meas_sigma_rad = 0.01;
+  // Exact Gauss-Markov model of the bias instead (needs heading_bias_sigma_rad > 0): with
+  // m the free mean node and s = heading_bias_sigma_rad, beta_0 - m ~ N(0, s^2) and for k > 0
+  // (beta_k - m) - phi (beta_k-1 - m) ~ N(0, s^2 (1 - phi^2)), phi = exp(-dt / tau): the
+  // stationary process, with no per-keyframe prior (which over-counts the information of a
+  // process correlated over many keyframes).
+  bool heading_bias_gauss_markov = false;
+  // Cauchy loss on the heading measurement yaw_k + beta_k = DR yaw_k, in sigmas (0: none): the
+  // steel anomaly (local, a few degrees) is down-weighted instead of followed by the bias.
+  double heading_meas_cauchy_scale = 0.0;
   double scan_match_cauchy_scale = 1.0;
 
   bool loop_closure = true;
