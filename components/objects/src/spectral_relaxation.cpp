@@ -178,29 +178,18 @@ std::vector<AffinityComponent> AffinityComponents(const SparseAffinity& affinity
         (*y)[e.c] += double(e.v_cr) * x[e.r];
       }
     };
-    std::vector<double> x(m, 1.0 / std::sqrt(double(m))), y(m);
+    // Shifted by half the Rayleigh quotient: y = (M + rho/2 I) x keeps the iteration from
+    // swinging on a bipartite component (where -lambda is an eigenvalue too).
     int it = 0;
-    for (; it < options.max_power_iterations; ++it) {
-      mat_vec(x, &y);
-      const double rho = std::inner_product(x.begin(), x.end(), y.begin(), 0.0);
-      double norm = 0.0;
-      for (std::size_t i = 0; i < m; ++i) {
-        y[i] += 0.5 * rho * x[i];
-        norm += y[i] * y[i];
-      }
-      norm = std::sqrt(norm);
-      if (norm == 0.0) break;
-      double change = 0.0;
-      for (std::size_t i = 0; i < m; ++i) {
-        y[i] /= norm;
-        change = std::max(change, std::abs(y[i] - x[i]));
-      }
-      x.swap(y);
-      if (change < options.power_tolerance) {
-        ++it;
-        break;
-      }
-    }
+    std::vector<double> x = PowerIteration(
+        m, options,
+        [&](const std::vector<double>& v, std::vector<double>* y) {
+          mat_vec(v, y);
+          const double rho = std::inner_product(v.begin(), v.end(), y->begin(), 0.0);
+          for (std::size_t i = 0; i < m; ++i) (*y)[i] += 0.5 * rho * v[i];
+        },
+        &it);
+    std::vector<double> y(m);
     mat_vec(x, &y);
     c.eigenvalue = std::inner_product(x.begin(), x.end(), y.begin(), 0.0);
     c.vector = std::move(x);
