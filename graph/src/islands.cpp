@@ -28,7 +28,6 @@
 #include <condition_variable>
 #include <mutex>
 #include <numeric>
-#include <semaphore>
 #include <string>
 #include <thread>
 
@@ -44,6 +43,32 @@ std::uint32_t Root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
   while (parent[x] != x) x = parent[x] = parent[parent[x]];
   return x;
 }
+
+// At most `n` engines run at once (RunOptions::island_threads). A mutex and a condition
+// variable, not std::counting_semaphore: libstdc++ 12's release() wakes waiters only when the
+// count was 0 (GCC bug 98033), which can leave a waiter asleep with a slot free; a marina
+// replay (tuning world 4) stalled at one mission time until a debugger attached.
+class Slots {
+ public:
+  explicit Slots(int n) : free_(std::max(1, n)) {}
+  void Acquire() {
+    std::unique_lock lock(mutex_);
+    freed_.wait(lock, [&] { return free_ > 0; });
+    --free_;
+  }
+  void Release() {
+    {
+      std::lock_guard lock(mutex_);
+      ++free_;
+    }
+    freed_.notify_all();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable freed_;
+  int free_;
+};
 
 Time SaturatingAdd(Time a, Time b) {
   if (a.ns > Time::Max().ns - b.ns) return Time::Max();
@@ -193,7 +218,7 @@ std::optional<RunResult> RunIslands(Graph& graph, const RunOptions& options) {
       return limit;
     };
     for (std::size_t p = 0; p < n; ++p) next[p] = Clip(engines[p]->NextEventTime());
-    std::counting_semaphore<> busy(std::max(1, options.island_threads));
+    Slots busy(options.island_threads);
     std::vector<std::thread> threads;
     for (std::size_t p = 0; p < n; ++p) {
       threads.emplace_back([&, p] {
@@ -213,10 +238,10 @@ std::optional<RunResult> RunIslands(Graph& graph, const RunOptions& options) {
             taken.swap(inbox[p]);
             inbox_min[p] = Time::Max();
           }
-          busy.acquire();
+          busy.Acquire();
           for (const auto& f : taken) engine.Receive(f.producer, f.output, f.phase, f.envelope);
           engine.RunUntil(until);
-          busy.release();
+          busy.Release();
           std::lock_guard lock(mutex);
           if (engine.failed() || engine.interrupted()) abort = true;
           next[p] = Clip(engine.NextEventTime());
