@@ -1073,6 +1073,65 @@ TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
   EXPECT_NEAR(grown[1].T_own_teammate.at(1).x_m, 5.0, 0.05);  // at T_0_1, not the guess
 }
 
+// The filter switches cliques: six loops that placed teammate 1 three spacings of a pile row
+// off (12 m along x) are replaced by six at the truth, three of them naming the teammate
+// keyframe a wrong loop that stays accepted names too, and the matcher's guess moves to the
+// truth. Started from the old solution, that keyframe would stay in the wrong loop's minimum
+// of the robust cost; the solve after the switch starts afresh and gives the cold estimate.
+TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
+  std::array<TeamEstimate, 2> wrong, undone;
+  for (const bool warm : {false, true}) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.warm_start = warm;
+    o.competitor_ratio = 0.0;  // the withdrawn loops would contest the new ones: not here
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    TeammateOne mate(&stage);
+    const Pose2 T_0_1 = mate.T_0_1;
+    const Pose2 T_wrong{T_0_1.x_m + 12.0, T_0_1.y_m, T_0_1.yaw_rad};
+    mate.matches.guesses[1].match.T_a_b = T_wrong;  // the matcher took the shifted fit too
+    std::vector<msgs::InterRobotLoop> loops;
+    mate.T_0_1 = T_wrong;
+    const std::vector<std::pair<int, int>> old_pairs{{1, 2}, {3, 4}, {5, 6},
+                                                     {1, 4}, {3, 6}, {7, 5}};
+    for (std::size_t i = 0; i < old_pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 11 + i, old_pairs[i].first, old_pairs[i].second));
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    ASSERT_TRUE(st.optimized);
+    wrong[warm] = stage.estimate();
+    for (std::size_t i = 1; i < loops.size(); ++i) loops[i].flags = msgs::kLoopRejected;
+    mate.T_0_1 = T_0_1;
+    mate.matches.guesses[1].match.T_a_b = T_0_1;
+    mate.matches.guesses[1].match_count = 2;
+    const std::vector<std::pair<int, int>> new_pairs{{1, 2}, {3, 2}, {5, 2},
+                                                     {3, 4}, {5, 6}, {7, 6}};
+    for (std::size_t i = 0; i < new_pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 21 + i, new_pairs[i].first, new_pairs[i].second));
+    st = {};
+    stage.Step(40.0, loops, mate.matches, &st);
+    ASSERT_TRUE(st.optimized);
+    undone[warm] = stage.estimate();
+  }
+  for (const auto& e : wrong) EXPECT_NEAR(e.T_own_teammate.at(1).x_m, 17.0, 0.05);
+  for (const auto& e : undone) {
+    ASSERT_EQ(e.trajectories.count(1), 1u);
+    EXPECT_NEAR(e.T_own_teammate.at(1).x_m, 5.0, 0.3);
+    EXPECT_NEAR(e.T_own_teammate.at(1).y_m, 1.0, 0.3);
+    EXPECT_NEAR(e.T_own_teammate.at(1).yaw_rad, 0.3, 0.02);
+  }
+  const auto& cold = undone[0].trajectories.at(1);
+  const auto& hot = undone[1].trajectories.at(1);
+  ASSERT_EQ(cold.size(), hot.size());
+  for (std::size_t k = 0; k < cold.size(); ++k) {
+    EXPECT_NEAR(cold[k].T_map_kf.x_m, hot[k].T_map_kf.x_m, 1e-4) << k;
+    EXPECT_NEAR(cold[k].T_map_kf.y_m, hot[k].T_map_kf.y_m, 1e-4) << k;
+    EXPECT_NEAR(cold[k].T_map_kf.yaw_rad, hot[k].T_map_kf.yaw_rad, 1e-5) << k;
+  }
+}
+
 TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   // The loops place robot 1 with a rotation of 0.3 rad (TeammateOne). Map headings whose
   // difference is 0.3 rad (give or take the AHRS's error) allow it; headings that say the

@@ -71,6 +71,28 @@ void OptimizerStage::Forget(int robot) {
   own_graph_changed_ = true;  // the estimate is recomputed without it
 }
 
+bool OptimizerStage::WarmStillHolds(
+    const team::TeamProblem& problem,
+    const std::set<std::pair<int, std::uint64_t>>& loop_keys) const {
+  if (warm_.empty()) return false;
+  if (!std::includes(loop_keys.begin(), loop_keys.end(), warm_loops_.begin(), warm_loops_.end()))
+    return false;  // a loop the last solution stood on is gone
+  for (const auto& [robot, before] : warm_guesses_) {
+    if (!warm_.count(robot)) continue;
+    const auto now = problem.maps.find({options_.robot_id, robot});
+    const auto graph = problem.robots.find(robot);
+    if (now == problem.maps.end() || graph == problem.robots.end()) return false;
+    msgs::Point2 c{0.0, 0.0};  // the teammate's keyframe centroid: where a gap shows
+    for (const auto& p : graph->second.poses) {
+      c.x_m += p.x_m / static_cast<double>(graph->second.poses.size());
+      c.y_m += p.y_m / static_cast<double>(graph->second.poses.size());
+    }
+    const auto [m, rad] = TransformGap(FromPg(now->second), before, c);
+    if (m > options_.warm_reset_guess_m || rad > options_.warm_reset_guess_rad) return false;
+  }
+  return true;
+}
+
 bool OptimizerStage::Contested(int robot,
                                const std::vector<msgs::InterRobotLoop>& candidates) const {
   const OptimizerStageOptions& o = options_;
@@ -406,7 +428,9 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   std::map<int, std::vector<Pose2>> placed;
   bool solved = false;
   if (pgo) {
-    if (options_.warm_start) {
+    std::set<std::pair<int, std::uint64_t>> loop_keys;
+    for (const auto& l : problem.loops) loop_keys.insert({l.own_robot, l.id});
+    if (options_.warm_start && WarmStillHolds(problem, loop_keys)) {
       for (const auto& [robot, w] : warm_) {
         if (problem.robots.count(robot)) problem.warm[robot] = w;
       }
@@ -419,6 +443,11 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       }
       solved = true;
       warm_.clear();
+      warm_loops_ = std::move(loop_keys);
+      warm_guesses_.clear();
+      for (const auto& [ab, T] : problem.maps) {
+        if (ab.first == own_id) warm_guesses_[ab.second] = FromPg(T);
+      }
       if (options_.warm_start) {
         std::set<int> with_loops{own_id};
         for (const auto& l : problem.loops) {

@@ -389,6 +389,12 @@ struct OptimizerStageOptions {
   // robust loops' cost has one minimum, else the minimum nearest the previous estimate (marina
   // in process: the same loops and verdicts, final errors 0.00-0.19 m apart, smaller).
   bool warm_start = true;
+  // The warm start is dropped (every robot solved from its local-SLAM poses and map guess)
+  // when an accepted loop of the last solve is no longer accepted (the filter switched to
+  // another clique, a placement was withdrawn) or a teammate's map-to-map guess moved by more
+  // than these since: the old solution may sit in the minimum the evidence has left.
+  double warm_reset_guess_m = 3.0;
+  double warm_reset_guess_rad = 0.1745;
   // Place teammates in the estimate by the map-to-map guess alone, before any loop with them
   // is accepted (false: only teammates with accepted loops are placed).
   bool place_unverified_teammates = false;
@@ -503,6 +509,9 @@ class OptimizerStage {
   // True when candidates the filter did not accept form a rival hypothesis for `robot`
   // (OptimizerStageOptions::competitor_ratio).
   bool Contested(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
+  // Whether the last PGO's solution may start this one (OptimizerStageOptions::warm_reset_*).
+  bool WarmStillHolds(const team::TeamProblem& problem,
+                      const std::set<std::pair<int, std::uint64_t>>& loop_keys) const;
   // The object maps' agreement under the transform the accepted loops with `robot` imply;
   // nullopt when there is nothing to compare (no map, no loop with known poses).
   // Where the own sonar looked and what it returned, in the own map frame; rebuilt when the
@@ -532,6 +541,9 @@ class OptimizerStage {
   double last_optimize_s_;
   bool optimized_once_ = false;
   std::map<int, team::WarmStart> warm_;  // the last PGO's robots with loops, and the own one
+  // What the last PGO stood on: its loops (own robot, id) and the teammates' map guesses.
+  std::set<std::pair<int, std::uint64_t>> warm_loops_;
+  std::map<int, msgs::Pose2> warm_guesses_;
   TeamEstimate estimate_;
   std::map<int, std::vector<msgs::Heartbeat::Transform>> shared_;  // by sender
   std::set<int> loop_verified_;                                    // after the last step
