@@ -647,7 +647,7 @@ TEST(ObjectMapperStage, PublishesAtMostEveryPeriodWhenChanged) {
 // the dead-reckoned yaw) minus the local SLAM's yaw, averaged on the circle. The local SLAM
 // turned the map by -0.04 rad against the odom frame (+-0.01 rad from keyframe to keyframe):
 // the map's heading is the odom heading + 0.04. Off: the odom frame's heading, the first AHRS
-// reading. The mean heading (ObjectMap::mean_heading_rad) is that mean whatever the option.
+// reading.
 TEST(ObjectMapperStage, MapHeadingIsTheMeanOfAhrsMinusSlamYaw) {
   const auto world = World(7);
   const RobotData r = MakeRobot(kA, world, Lawnmower({10.0, 40.0}, true), {}, 1);
@@ -672,10 +672,6 @@ TEST(ObjectMapperStage, MapHeadingIsTheMeanOfAhrsMinusSlamYaw) {
     ASSERT_TRUE(out.has_object_map);
     const double want = mean ? std::remainder(heading + 0.04, 2.0 * M_PI) : heading;
     EXPECT_NEAR(std::remainder(out.object_map.map_heading_rad - want, 2.0 * M_PI), 0.0, 1e-9)
-        << mean;
-    // The mean heading travels beside it either way.
-    EXPECT_NEAR(std::remainder(out.object_map.mean_heading_rad - (heading + 0.04), 2.0 * M_PI), 0.0,
-                1e-9)
         << mean;
   }
 }
@@ -831,25 +827,18 @@ struct TeammateOne {
 // placement_heading_weight: loops place teammate 1 at T_0_1 (yaw 0.3); the maps' absolute
 // headings say the rotation is 0.4. Half way: yaw 0.35, turned about the centroid of the
 // teammate keyframes the loops name, which stays where the loops put it.
-// The turn uses the maps' mean headings (placement_heading_mean), or with it off the headings
-// that gate matching; each case gives the other pair of headings no gap (no turn) so that the
-// wrong choice fails.
 TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
-  for (const auto& [weight, use_mean] :
-       std::vector<std::pair<double, bool>>{{0.0, true}, {0.5, true}, {0.5, false}}) {
+  for (const double weight : {0.0, 0.5}) {
     OptimizerStageOptions o;
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.placement_heading_weight = weight;
-    o.placement_heading_mean = use_mean;
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
     const TeammateOne mate(&stage);
     msgs::ObjectMap own_map, mate_map;
     own_map.map_heading_rad = 1.0;
-    mate_map.map_heading_rad = use_mean ? 1.3 : 1.4;
-    own_map.mean_heading_rad = 2.0;
-    mate_map.mean_heading_rad = use_mean ? 2.4 : 2.3;
+    mate_map.map_heading_rad = 1.4;
     stage.OnOwnObjectMap(own_map);
     msgs::FleetHeader header;
     header.robot_id = 1;

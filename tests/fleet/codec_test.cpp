@@ -257,19 +257,7 @@ TEST(FleetCodec, ObjectMapRoundTrip) {
         << heading;
     EXPECT_GT(d.map_heading_rad, -std::numbers::pi - 1e-12);
     EXPECT_LE(d.map_heading_rad, std::numbers::pi + 1e-12);
-    EXPECT_TRUE(std::isnan(d.mean_heading_rad));
   }
-  // The mean heading beside it, each in its own 12 bits (one flag bit each).
-  e.map_heading_rad = 0.5;
-  e.mean_heading_rad = -1.75;
-  const auto both = Encode(e);
-  ASSERT_TRUE(Decode(both, &d));
-  EXPECT_NEAR(d.map_heading_rad, 0.5, 0.0009);
-  EXPECT_NEAR(d.mean_heading_rad, -1.75, 0.0009);
-  e.map_heading_rad = msgs::kUnknownHeading;
-  ASSERT_TRUE(Decode(Encode(e), &d));
-  EXPECT_TRUE(std::isnan(d.map_heading_rad));
-  EXPECT_NEAR(d.mean_heading_rad, -1.75, 0.0009);
 }
 
 TEST(FleetCodec, LandmarkObjectsKeepTheirFlagThroughTheId) {

@@ -53,8 +53,7 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
   }
   objects_.robot_id = options_.robot_id;
   objects_.map_heading_rad = odom_heading_rad_;
-  objects_.mean_heading_rad = msgs::kUnknownHeading;
-  if (std::isfinite(odom_heading_rad_)) {
+  if (options_.map_heading_from_keyframes && std::isfinite(odom_heading_rad_)) {
     double sum_sin = 0.0, sum_cos = 0.0;
     for (const auto& [index, kf] : own_.entries()) {
       const auto ahrs = ahrs_heading_rad_.find(index);
@@ -63,9 +62,7 @@ ObjectMapperStage::Output ObjectMapperStage::Step(double now_s, msgs::TeamStepSt
       sum_sin += std::sin(h);
       sum_cos += std::cos(h);
     }
-    if (sum_sin != 0.0 || sum_cos != 0.0) objects_.mean_heading_rad = std::atan2(sum_sin, sum_cos);
-    if (options_.map_heading_from_keyframes && std::isfinite(objects_.mean_heading_rad))
-      objects_.map_heading_rad = objects_.mean_heading_rad;
+    if (sum_sin != 0.0 || sum_cos != 0.0) objects_.map_heading_rad = std::atan2(sum_sin, sum_cos);
   }
   if (now_s - last_publish_s_ >= options_.object_map_period_s && !objects_.objects.empty()) {
     bool same = published_once_ && last_published_.objects.size() == objects_.objects.size();

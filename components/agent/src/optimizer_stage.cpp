@@ -180,13 +180,7 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
   if (map == teammate_objects_.end() || held == nullptr) return;
-  std::optional<double> prior;
-  if (options_.placement_heading_mean) {
-    const double a = own_objects_.mean_heading_rad, b = map->second.map.mean_heading_rad;
-    if (std::isfinite(a) && std::isfinite(b)) prior = std::remainder(b - a, 2.0 * M_PI);
-  } else {
-    prior = objects::HeadingYawPrior(own_objects_, map->second.map);
-  }
+  const auto prior = objects::HeadingYawPrior(own_objects_, map->second.map);
   if (!prior) return;
   std::vector<Pose2> local, moved;
   for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {

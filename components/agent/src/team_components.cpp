@@ -640,9 +640,6 @@ class TwoStepOptimizerComponent final : public graph::Component {
     spec.Param("place_chained_teammates", &o_.place_chained_teammates,
                {.doc = "place a teammate without own verified loops through a teammate's "
                        "shared estimate"});
-    spec.Param("placement_heading_mean", &o_.placement_heading_mean,
-               {.doc = "the turn toward the headings uses the maps' mean headings over their "
-                       "keyframes (false: the headings that gate matching)"});
     spec.Param("placement_heading_weight", &o_.placement_heading_weight,
                {.doc = "turn a placed teammate about its loops' centroid by this fraction of "
                        "the gap between its placement's rotation and the headings' difference "

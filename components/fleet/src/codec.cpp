@@ -377,23 +377,21 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::Heartbeat* m,
 // ---------------------------------------------------------------------------------------
 // Object-map update: header, version, base_version, upserts sorted by id (id deltas, centre,
 // rectangle-centre offset, sides, 8-bit yaw over [0, pi), num_points), removed ids (deltas),
-// after the versions the map's heading and its mean heading (a flag, then kHeadingBits each).
+// after the versions the map's heading (kHeadingBits).
 
 std::vector<std::uint8_t> Encode(const msgs::ObjectMapUpdate& m, const CodecOptions& o) {
   Encoder e(FleetKind::kObjectMap, o);
   e.Header(m.header);
   e.w.PutExpGolomb(m.version, kVersionOrder);
   e.w.PutExpGolomb(m.base_version, kVersionOrder);
-  for (const double h : {m.map_heading_rad, m.mean_heading_rad}) {
-    const bool heading = std::isfinite(h);
-    e.w.Put(heading ? 1u : 0u, 1);
-    if (heading) {
-      const double turn = 2.0 * std::numbers::pi;
-      const double u = h - turn * std::floor(h / turn);  // [0, 2 pi]
-      const auto q = static_cast<std::uint64_t>(std::llround(u / turn * (1 << kHeadingBits))) %
-                     (1u << kHeadingBits);
-      e.w.Put(q, kHeadingBits);
-    }
+  const bool heading = std::isfinite(m.map_heading_rad);
+  e.w.Put(heading ? 1u : 0u, 1);
+  if (heading) {
+    const double turn = 2.0 * std::numbers::pi;
+    const double u = m.map_heading_rad - turn * std::floor(m.map_heading_rad / turn);  // [0, 2 pi]
+    const auto q = static_cast<std::uint64_t>(std::llround(u / turn * (1 << kHeadingBits))) %
+                   (1u << kHeadingBits);
+    e.w.Put(q, kHeadingBits);
   }
 
   std::vector<const msgs::Object*> objs;
@@ -503,14 +501,13 @@ DecodeResult Decode(const std::vector<std::uint8_t>& bytes, msgs::ObjectMapUpdat
     if (!d.Options() || !d.Header(&out.header) || !d.U32(kVersionOrder, &out.version, "version") ||
         !d.U32(kVersionOrder, &out.base_version, "base_version"))
       return false;
-    for (double* h : {&out.map_heading_rad, &out.mean_heading_rad}) {
-      std::uint64_t heading = 0, heading_q = 0;
-      if (!d.U(1, &heading, "map heading flag")) return false;
-      if (heading) {
-        if (!d.U(kHeadingBits, &heading_q, "map heading")) return false;
-        *h = static_cast<double>(heading_q) * 2.0 * std::numbers::pi / (1 << kHeadingBits) -
-             (heading_q >= (1u << (kHeadingBits - 1)) ? 2.0 * std::numbers::pi : 0.0);  // (-pi, pi]
-      }
+    std::uint64_t heading = 0, heading_q = 0;
+    if (!d.U(1, &heading, "map heading flag")) return false;
+    if (heading) {
+      if (!d.U(kHeadingBits, &heading_q, "map heading")) return false;
+      out.map_heading_rad =
+          static_cast<double>(heading_q) * 2.0 * std::numbers::pi / (1 << kHeadingBits) -
+          (heading_q >= (1u << (kHeadingBits - 1)) ? 2.0 * std::numbers::pi : 0.0);  // (-pi, pi]
     }
     if (!d.Count(b.max_objects, &n, "upserts")) return false;
     if (n > 0) {

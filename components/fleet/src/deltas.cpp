@@ -61,8 +61,6 @@ bool ObjectMapDeltaEncoder::MakeUpdate(const msgs::ObjectMap& current, std::uint
   held.time_s = current.time_s;
   held.map_heading_rad = current.map_heading_rad;
   out.map_heading_rad = current.map_heading_rad;
-  held.mean_heading_rad = current.mean_heading_rad;
-  out.mean_heading_rad = current.mean_heading_rad;
   if (base == nullptr) {
     out.base_version = 0;
     out.upserts = now;
@@ -131,7 +129,6 @@ bool ApplyObjectMapUpdate(const msgs::ObjectMapUpdate& update, msgs::ObjectMap* 
   held->robot_id = update.header.robot_id;
   held->time_s = update.header.time_s;
   held->map_heading_rad = update.map_heading_rad;
-  held->mean_heading_rad = update.mean_heading_rad;
   *held_version = update.version;
   return true;
 }

@@ -145,7 +145,7 @@ class ObjectMapperStage {
   void OnKeyframe(const msgs::Keyframe& keyframe) {
     own_.OnKeyframe(keyframe);
     odom_heading_rad_ = keyframe.odom_heading_rad;  // the map frame starts as the odom frame
-    if (std::isfinite(keyframe.odom_heading_rad))
+    if (options_.map_heading_from_keyframes && std::isfinite(keyframe.odom_heading_rad))
       ahrs_heading_rad_[keyframe.index] = keyframe.odom_heading_rad + keyframe.T_odom_body.yaw_rad;
   }
   void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
@@ -459,9 +459,6 @@ struct OptimizerStageOptions {
   // the headings (map_heading_from_keyframes) measure the whole-mission rotation, with the
   // AHRS's errors.
   double placement_heading_weight = 0.0;
-  // The headings that turn uses: the maps' mean headings (msgs::ObjectMap::mean_heading_rad),
-  // whatever heading gates the matcher and the placement (false: map_heading_rad).
-  bool placement_heading_mean = true;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).

@@ -98,8 +98,7 @@ struct ObjectMapUpdate {
   std::uint32_t base_version = 0;
   std::vector<Object> upserts;         // new or changed objects (id, centre, sides, yaw, points)
   std::vector<std::uint32_t> removed;  // ids gone since base_version
-  double map_heading_rad = kUnknownHeading;   // ObjectMap::map_heading_rad, in every update
-  double mean_heading_rad = kUnknownHeading;  // ObjectMap::mean_heading_rad, in every update
+  double map_heading_rad = kUnknownHeading;  // ObjectMap::map_heading_rad, in every update
 };
 
 // Keyframe poses in the sender's map frame: new keyframes and those that moved more than a

@@ -36,10 +36,6 @@ struct ObjectMap {
   // east for the simulator): the AHRS's first reading. NaN: unknown (an AHRS without an
   // absolute reference). Two maps' headings bound the rotation between them.
   double map_heading_rad = kUnknownHeading;
-  // The same heading as the circular mean over the map's keyframes of the AHRS heading minus
-  // the local SLAM's yaw: the AHRS's Gauss-Markov error averages out, so two maps' mean
-  // headings give their whole-mission rotation within about a degree. NaN: unknown.
-  double mean_heading_rad = kUnknownHeading;
 };
 
 enum class MatchStatus : std::uint8_t {
