@@ -19,6 +19,9 @@
                                                      draco-fleet's placements_verdict.csv
                                                      (report::EvaluatePlacements): one CSV row
                                                      per ordered pair on stdout
+  team_netns_check.py held DIR ROBOT...             which version of each teammate's object
+                                                     map each robot holds at the end, against
+                                                     the newest any robot holds
   team_netns_check.py mission-table WORK CASE...    the mission cases against the in-process
                                                      run: loops, team ATE, placements, first
                                                      right placement per pair, every wrong one
@@ -177,7 +180,7 @@ def check_file(path):
         elif name.endswith(".g2o"):
             for i, line in enumerate(text.splitlines(), 1):
                 tokens = line.split()
-                if not tokens:
+                if not tokens or tokens[0].startswith("#"):  # a comment (g2o skips them)
                     continue
                 try:
                     numbers(tokens[1:])
@@ -527,13 +530,26 @@ def true_accepted(path):
     return (int(m.group(1)), int(m.group(2))) if m else (-1, -1)
 
 
+def cmd_held(d, robots):
+    held = {}
+    for r in robots:
+        for t in stats(d, r)["teammates"]:
+            held[(r, robots[t["robot_id"]])] = t["held_map_version"]
+    newest = {m: max(v for (_, mm), v in held.items() if mm == m) for m in robots}
+    print("; ".join("%s holds %s" % (r, ", ".join(
+        "%s v%d%s" % (m, held[(r, m)], "" if held[(r, m)] == newest[m] else
+                      " (newest held v%d)" % newest[m]) for m in robots if m != r))
+        for r in robots))
+    return 0
+
+
 def cmd_mission_table(work, cases):
     ref_eval = os.path.join(work, "ref", "eval.txt")
     ref_pl = read_placements(os.path.join(work, "ref", "placements.csv"))
     ref_rows = eval_table(ref_eval)
     head = ("%-22s %-8s %4s %9s %13s %5s %-27s %-9s" %
             ("case", "robot", "exit", "acc", "team m", "r/w/n", "first right s (teammates)",
-             "vs inproc"))
+             "vs in-process"))
     print(head)
     print("-" * len(head))
     wrong = []
@@ -583,6 +599,14 @@ def cmd_mission_table(work, cases):
             print("%-22s %-8s %4s %9s %13s %5s %-27s %-9s" % (
                 title, r, meta.get("exit." + r, "-"), acc, team, rwn(pl, r) if pl else "-",
                 first_rights(pl, r) if pl else "-", verdict))
+        walls = [float(meta["wall." + r]) for r in meta.get("robots", "").split()
+                 if "wall." + r in meta]
+        if walls and "mission_s" in meta:
+            totals.append("%s: %s s of mission in %.0f s of wall time (%.2fx; paced at %sx)" % (
+                title, meta["mission_s"], max(walls), float(meta["mission_s"]) / max(walls),
+                meta.get("pace", "-")))
+        if meta.get("held"):
+            totals.append("%s: object maps held at the end: %s" % (title, meta["held"]))
         for (o, m), p in sorted(pl.items()):
             if float(p["first_wrong_s"]) >= 0:
                 wrong.append("%s: %s placed %s wrong from mission %.0f s for %.0f s (worst %.2f "
@@ -620,6 +644,8 @@ def main(argv):
         return cmd_table(args[0], args[1:])
     if cmd == "placements":
         return cmd_placements(args[0], args[1], args[2:])
+    if cmd == "held":
+        return cmd_held(args[0], args[1:])
     if cmd == "mission-table":
         return cmd_mission_table(args[0], args[1:])
     print(__doc__)
