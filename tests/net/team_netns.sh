@@ -43,6 +43,7 @@
 #   12  unicast, charlie's link cut (bridge port down) from mission time 900 s to 1020 s
 #       (DRACO_NETNS_CUT="FROM TO", mission seconds; at wall FROM / P and TO / P after the
 #       start), then back
+#
 #   sudo tests/net/team_netns.sh build/apps/sim/draco-sim build/apps/fleet/draco-fleet \
 #     build/apps/fleet/draco-robot build/apps/eval/draco-eval .
 # Not root, or namespaces/bridges cannot be made: prints SKIP and exits 77. Everything made is
