@@ -581,12 +581,12 @@ for c in 9 10 11; do
        extra=(--set link.lockstep_timeout_s=30) ;;
     11) bps=5000 permille=200 profile=$slow_profile
        extra=(--set link.lockstep_timeout_s=30 --set link.startup_timeout_s=240
-         --set link.team_rate_bps=$bps --set link.dds_reliability="$slow_reliability") ;;
+         --set "link.team_rate_bps=$bps" --set link.dds_reliability="$slow_reliability") ;;
   esac
-  title="$c team $(awk -v b=$bps 'BEGIN { print b / 1000 }')k+$((permille / 10))% ${pace}x"
+  title="$c team $(awk -v b="$bps" 'BEGIN { print b / 1000 }')k+$((permille / 10))% ${pace}x"
   shaped=()
   for r in "${robots[@]}"; do
-    if ! err=$(shape "$r" "$(wall_rate $bps)" "$permille" 2>&1); then
+    if ! err=$(shape "$r" "$(wall_rate "$bps")" "$permille" 2>&1); then
       fail "case $c: cannot shape $r's link: $err"
       break
     fi
@@ -594,7 +594,7 @@ for c in 9 10 11; do
   done
   if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
     run_team "c$c" "$title" "$profile" "$pace" "$mission_timeout" -- "${extra[@]}"
-    note="every link tbf $(wall_rate $bps) bit/s (${bps} bit/s of mission time at ${pace}x)"
+    note="every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
     for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "$((permille / 10)) %")"; done
     check_case "c$c" "$title" heard compare
     placements_of "$work/c$c" "$work/c$c" "$title"
