@@ -28,13 +28,31 @@
 #   8  unicast: 3000 random UDP datagrams (1-1400 bytes) at every UDP port the daemons have
 #      open, sent from alpha's namespace within about 1 s, 1 s after the start; the verdicts must match case 2's
 #      (draco-eval of both against the in-process run)
+# Mission cases (not in the default list; reported like 5-8): the team on a longer recorded
+# mission where robots place each other (DRACO_NETNS_MISSION), paced at P x real time
+# (DRACO_NETNS_PACE, default 4), against the in-process run of that mission. Rates are those of
+# the modem in mission time: draco's link budget (link.team_rate_bps) is spent on the mission
+# clock, tbf's rate on the wall clock, so at P x real time tbf carries P x the modem rate.
+# Each reports, per ordered pair, where each robot placed each teammate (right / wrong / none,
+# judged against ground truth as draco-fleet's placements_verdict.csv) and when first right:
+#   9   unicast, reliable DDS, every robot's link at 62.5 kbit/s (tbf 62500 x P bit/s) with
+#       10 % random loss
+#   10  the same with 25 % loss
+#   11  as case 5 paced: acoustic profile, best-effort DDS, every link at 5 kbit/s (tbf 5000 x P
+#       bit/s, link.team_rate_bps=5000) with 20 % loss
+#   12  unicast, charlie's link cut (bridge port down) from mission time 900 s to 1020 s
+#       (DRACO_NETNS_CUT="FROM TO", mission seconds; at wall FROM / P and TO / P after the
+#       start), then back
 #
 #   sudo tests/net/team_netns.sh build/apps/sim/draco-sim build/apps/fleet/draco-fleet \
 #     build/apps/fleet/draco-robot build/apps/eval/draco-eval .
 # Not root, or namespaces/bridges cannot be made: prints SKIP and exits 77. Everything made is
 # torn down on exit (also on failure or Ctrl-C). DRACO_NETNS_KEEP=1 keeps the work folder;
 # DRACO_NETNS_CASES="1 2" runs some cases only; DRACO_NETNS_LOSS_TOOL=iptables picks iptables
-# over nft for the loss rule.
+# over nft for the loss rule. DRACO_NETNS_MISSION=DIR runs the cases on that recorded mission
+# (read only; no draco-sim), DRACO_NETNS_PACE=P paces the mission cases at P x real time:
+#   DRACO_NETNS_MISSION=runs/missions/marina DRACO_NETNS_CASES="9 10 11 12" sudo -E \
+#     tests/net/team_netns.sh ...
 set -u
 if [ $# -ne 5 ]; then
   echo "usage: $0 DRACO_SIM DRACO_FLEET DRACO_ROBOT DRACO_EVAL SOURCE_DIR" >&2
@@ -53,6 +71,9 @@ cut_robot=charlie             # the robot whose link is shaped (3) and cut (4)
 cases=${DRACO_NETNS_CASES:-1 2 3 4}
 slow_profile=${DRACO_NETNS_SLOW_PROFILE:-acoustic}  # the DDS profile of cases 5 and 6
 slow_reliability=${DRACO_NETNS_SLOW_RELIABILITY:-best_effort}  # and their DDS reliability
+mission_dir=${DRACO_NETNS_MISSION:-}  # a recorded mission instead of the simulated 40 s one
+pace=${DRACO_NETNS_PACE:-4}           # x real time, the mission cases (9-12)
+read -r cut_from_s cut_to_s <<<"${DRACO_NETNS_CUT:-900 1020}"  # case 12, mission seconds
 
 skip() {
   echo "SKIP: $*"
@@ -79,6 +100,12 @@ command -v python3 >/dev/null || skip "no python3"
 for f in "$sim" "$fleet" "$robot" "$evaluate"; do
   [ -x "$f" ] || { echo "FAIL: $f is not an executable"; exit 1; }
 done
+if [ -n "$mission_dir" ]; then
+  [ -f "$mission_dir/mission.yaml" ] ||
+    { echo "FAIL: DRACO_NETNS_MISSION=$mission_dir: no mission.yaml"; exit 1; }
+  mission_dir=$(cd "$mission_dir" && pwd)
+fi
+awk -v p="$pace" 'BEGIN { exit !(p > 0) }' || { echo "FAIL: DRACO_NETNS_PACE=$pace: not > 0"; exit 1; }
 
 pfx="dnet$$"
 sw="$pfx-sw"
@@ -137,15 +164,29 @@ echo "network: namespaces ${made_ns[*]}; bridge br0 in $sw; robots ${peers}"
 
 # --- the mission and the in-process reference ----------------------------------------------
 t=$(now_us)
-"$sim" "$src/config/missions/marina.yaml" --out "$work/m" --duration-s 40 --no-pictures \
-  >"$work/sim.log" 2>&1 || { cat "$work/sim.log"; echo "FAIL: simulation"; exit 1; }
-"$fleet" "$work/m" --mode inproc --out "$work/inproc" --graph "$graph" \
+if [ -n "$mission_dir" ]; then
+  # Only read: every run writes into $work.
+  mission=$mission_dir
+else
+  mission=$work/m
+  "$sim" "$src/config/missions/marina.yaml" --out "$mission" --duration-s 40 --no-pictures \
+    >"$work/sim.log" 2>&1 || { cat "$work/sim.log"; echo "FAIL: simulation"; exit 1; }
+fi
+"$fleet" "$mission" --mode inproc --out "$work/inproc" --graph "$graph" \
   >"$work/inproc.log" 2>&1 || { cat "$work/inproc.log"; echo "FAIL: draco-fleet --mode inproc"; exit 1; }
 ref="$work/inproc/inproc"
 mkdir -p "$work/ref"
-"$evaluate" "$ref" --mission "$work/m" --frames 0 --no-report >"$work/ref/eval.txt" 2>&1 ||
+"$evaluate" "$ref" --mission "$mission" --frames 0 --no-report >"$work/ref/eval.txt" 2>&1 ||
   { cat "$work/ref/eval.txt"; echo "FAIL: draco-eval of the in-process run"; exit 1; }
 echo "mission and in-process reference: $(secs $(($(now_us) - t))) s"
+# Mission seconds of the replay (the longest robot's last AHRS sample, as draco-robot ends).
+mission_s=$(for r in "${robots[@]}"; do tail -n 1 "$mission/$r/ahrs.csv" | cut -d, -f1; done |
+  awk '{ if ($1 > m) m = $1 } END { printf "%d", m + 1 }')
+# timeout_for BASE_S: BASE_S on the 40 s mission; on a longer one, BASE_S plus twice the
+# mission's length in real time (a lock-step run is never slower than real time here).
+timeout_for() {
+  if [ -n "$mission_dir" ]; then echo $(($1 + 2 * mission_s)); else echo "$1"; fi
+}
 
 domain=$(((($$ % 200) + 10)))
 
@@ -236,7 +277,7 @@ launch_robot() {
   # profile of the case; no DRACO_* or CYCLONEDDS_URI from the caller's environment.
   ip netns exec "$pfx-$r" env -u CYCLONEDDS_URI -u DRACO_MISSION -u DRACO_BAG -u DRACO_TEAM \
     -u DRACO_ROBOT -u DRACO_DOMAIN -u DRACO_DDS_CONFIG DRACO_DDS_PEERS="$peers" \
-    "$robot" --mission "$work/m" --robot "$r" --out "$dir" --graph "$graph" --rate "$rate" \
+    "$robot" --mission "$mission" --robot "$r" --out "$dir" --graph "$graph" --rate "$rate" \
     --quiet --log-level info --dds-config "$src/config/dds/$profile.xml" --domain "$domain" \
     --set link.lockstep_timeout_s=5 "${run_args[@]}" >>"$dir/$r.log" 2>&1 &
   pid_of[$r]=$!
@@ -259,7 +300,7 @@ check_case() {
   if [ "$heard" = heard ]; then
     python3 "$check" heard "$dir" "${robots[@]}" || fail "$title: link statistics"
   fi
-  if "$evaluate" "$dir" --mission "$work/m" --frames 0 --no-report >"$dir/eval.txt" 2>&1; then
+  if "$evaluate" "$dir" --mission "$mission" --frames 0 --no-report >"$dir/eval.txt" 2>&1; then
     if [ "$compare" = compare ]; then
       python3 "$check" compare "$work/ref/eval.txt" "$dir/eval.txt" ||
         fail "$title: DDS across namespaces and in-process differ"
@@ -275,14 +316,14 @@ case_on() { [[ " $cases " == *" $1 "* ]]; }
 
 # --- 1: the LAN profile (multicast discovery over the bridge) ------------------------------
 if case_on 1; then
-  run_team c1 "1 LAN (multicast)" lan 0 120
+  run_team c1 "1 LAN (multicast)" lan 0 "$(timeout_for 120)"
   check_case c1 "1 LAN (multicast)" heard compare
   ran+=(c1)
 fi
 
 # --- 2: the unicast profile, peers in DRACO_DDS_PEERS --------------------------------------
 if case_on 2; then
-  run_team c2 "2 unicast peers" unicast 0 120
+  run_team c2 "2 unicast peers" unicast 0 "$(timeout_for 120)"
   check_case c2 "2 unicast peers" heard compare
   ran+=(c2)
 fi
@@ -380,7 +421,7 @@ if case_on 3; then
         unshape "$cut_robot"
         break
       fi
-      run_team "$name" "$title" unicast 0 150 -- "${extra[@]}"
+      run_team "$name" "$title" unicast 0 "$(timeout_for 150)" -- "${extra[@]}"
       note=$(shaping_note "$cut_robot")
       unshape "$cut_robot"
       # What was heard is reported, not required: on a loaded machine (CI, 2 cores) a robot
@@ -400,7 +441,7 @@ if case_on 4; then
   rate=4        # 40 s of mission in about 10 s of wall time
   cut_at=2.5    # wall seconds after the start
   back_at=6.0
-  run_team c4 "4 cut 3.5 s, back" unicast "$rate" 120 \
+  run_team c4 "4 cut 3.5 s, back" unicast "$rate" "$(timeout_for 120)" \
     "$cut_at" "ip -n $sw link set p-$cut_robot down" \
     "$back_at" "ip -n $sw link set p-$cut_robot up" \
     -- --set link.lockstep_timeout_s=2
@@ -439,7 +480,7 @@ for c in 5 6; do
   done
   if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
     # Discovery alone takes minutes at these rates: 240 s to find the teammates.
-    run_team "c$c" "$title" "$slow_profile" 0 420 -- --set link.lockstep_timeout_s=30 \
+    run_team "c$c" "$title" "$slow_profile" 0 "$(timeout_for 420)" -- --set link.lockstep_timeout_s=30 \
       --set link.startup_timeout_s=240 --set link.team_rate_bps=$bps \
       --set link.dds_reliability="$slow_reliability"
     note=""
@@ -453,7 +494,7 @@ done
 
 # --- 7: bravo killed and restarted ---------------------------------------------------------
 if case_on 7; then
-  run_team c7 "7 bravo killed, restarted" unicast 4 120 \
+  run_team c7 "7 bravo killed, restarted" unicast 4 "$(timeout_for 120)" \
     2.5 "kill_robot bravo" \
     4.0 "restart_robot bravo" \
     -- --set link.lockstep_timeout_s=2
@@ -496,17 +537,109 @@ if targets:
 PY
 }
 if case_on 8; then
-  run_team c8 "8 random UDP at DDS" unicast 0 120 1.0 "spray_udp"
+  run_team c8 "8 random UDP at DDS" unicast 0 "$(timeout_for 120)" 1.0 "spray_udp"
   wait 2>/dev/null
   check_case c8 "8 random UDP at DDS" heard compare
   echo "note=3000 random datagrams (1-1400 bytes) at every open UDP port of the daemons ($(sed -n 's/^spray.targets=//p' "$work/c8/meta.txt") ports), from 1 s" >>"$work/c8/meta.txt"
   ran+=(c8)
 fi
+
+# --- 9-12: the mission cases, paced at $pace x real time --------------------------------------
+# Clocks: draco's link spends link.team_rate_bps on the mission clock (its channel model sends a
+# frame's bits at the robot's share of it, in mission seconds), tbf on the wall clock. Paced at
+# P x real time a mission second lasts 1/P wall seconds, so the kernel link is shaped to P x the
+# modem's rate to carry that rate in mission time. What is not scaled runs on the wall clock:
+# DDS's own traffic (discovery, heartbeats, resends), the tbf queue (400 ms, or 8 s of traffic
+# at the slow rates), the lock-step and startup timeouts and the loss rule (a share of the
+# datagrams, whatever the clock).
+wall_rate() { awk -v b="$1" -v p="$pace" 'BEGIN { printf "%d", b * p + 0.5 }'; }
+mission_timeout=$(awk -v m="$mission_s" -v p="$pace" 'BEGIN { printf "%d", 2 * m / p + 300 }')
+# placements_of RUN_DIR OUT_DIR TITLE: OUT_DIR/placements.csv, the ordered pairs judged.
+placements_of() {
+  python3 "$check" placements "$1" "$mission" "${robots[@]}" >"$2/placements.csv" ||
+    fail "$3: placements could not be judged"
+}
+# mission_meta CASE: what the mission table needs besides the case's outputs.
+mission_meta() {
+  {
+    echo "mission_s=$mission_s"
+    echo "pace=$pace"
+    echo "held=$(python3 "$check" held "$work/$1" "${robots[@]}")"
+  } >>"$work/$1/meta.txt"
+}
+for c in 9 10 11; do
+  case_on $c || continue
+  if ! command -v tc >/dev/null || [ -z "$loss_tool" ]; then
+    echo "SKIP case $c: needs tc and nft or iptables"
+    continue
+  fi
+  [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
+  case $c in
+    9) bps=62500 permille=100 profile=unicast
+       extra=(--set link.lockstep_timeout_s=30) ;;
+    10) bps=62500 permille=250 profile=unicast
+       extra=(--set link.lockstep_timeout_s=30) ;;
+    11) bps=5000 permille=200 profile=$slow_profile
+       extra=(--set link.lockstep_timeout_s=30 --set link.startup_timeout_s=240
+         --set "link.team_rate_bps=$bps" --set link.dds_reliability="$slow_reliability") ;;
+  esac
+  title="$c team $(awk -v b="$bps" 'BEGIN { print b / 1000 }')k+$((permille / 10))% ${pace}x"
+  shaped=()
+  for r in "${robots[@]}"; do
+    if ! err=$(shape "$r" "$(wall_rate "$bps")" "$permille" 2>&1); then
+      fail "case $c: cannot shape $r's link: $err"
+      break
+    fi
+    shaped+=("$r")
+  done
+  if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
+    run_team "c$c" "$title" "$profile" "$pace" "$mission_timeout" -- "${extra[@]}"
+    note="every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
+    for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "$((permille / 10)) %")"; done
+    check_case "c$c" "$title" heard compare
+    placements_of "$work/c$c" "$work/c$c" "$title"
+    mission_meta "c$c"
+    echo "note=$note" >>"$work/c$c/meta.txt"
+    ran+=("c$c")
+  fi
+  for r in "${shaped[@]}"; do unshape "$r"; done
+done
+
+# --- 12: charlie's link cut for a stretch of the mission, then back -------------------------
+if case_on 12; then
+  [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
+  cut_at=$(awk -v m="$cut_from_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  back_at=$(awk -v m="$cut_to_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  title="12 cut ${cut_from_s}-${cut_to_s} s ${pace}x"
+  run_team c12 "$title" unicast "$pace" "$mission_timeout" \
+    "$cut_at" "ip -n $sw link set p-$cut_robot down" \
+    "$back_at" "ip -n $sw link set p-$cut_robot up" \
+    -- --set link.lockstep_timeout_s=2
+  check_case c12 "$title" heard compare
+  placements_of "$work/c12" "$work/c12" "$title"
+  mission_meta c12
+  # As case 4: the paced replay is never ahead of pace x wall time since the start. A frame
+  # lost for good in the cut (Cyclone drops what it cannot deliver once a teammate's lease has
+  # run out) or addressed to another robot also counts as sent and not received, so on a long
+  # cut this can miss a robot that was heard again; the held map versions (the note) tell.
+  bound=$(awk -v r="$pace" -v b="$back_at" 'BEGIN { printf "%.1f", r * b + 0.5 }')
+  python3 "$check" heard-after "$work/c12" "$cut_robot" "$bound" "${robots[@]}" ||
+    fail "12: $cut_robot not heard again after the cut"
+  lsto=$(python3 -c "import json,sys; print(sum(json.load(open('$work/c12/%s.link_stats.json' % r))['counters']['lockstep_timeouts'] for r in sys.argv[1:]))" "${robots[@]}")
+  echo "note=$cut_robot's bridge port down from $cut_at to $back_at s wall (mission <= ${cut_from_s}-${cut_to_s} s at ${pace}x); frames sent after mission time $bound s reached both sides; $lsto lock-step timeouts" >>"$work/c12/meta.txt"
+  ran+=(c12)
+fi
+mission_ran=()
+for c in "${ran[@]}"; do [ -f "$work/$c/placements.csv" ] && mission_ran+=("$c"); done
 reported=0
 
 echo
 python3 "$check" table "$work" "${ran[@]}"
 echo
+if [ ${#mission_ran[@]} -gt 0 ]; then
+  python3 "$check" mission-table "$work" "${mission_ran[@]}"
+  echo
+fi
 if [ ${#notes[@]} -gt 0 ]; then
   echo "NOTES of the reported cases (${#notes[@]}):"
   printf '  %s\n' "${notes[@]}"

@@ -13,6 +13,18 @@
                                                      BOUND_S reached each teammate, and theirs
                                                      reached CUT (the cut robot heard again)
   team_netns_check.py table WORK CASE...            the summary table of the cases run
+  team_netns_check.py placements DIR MISSION ROBOT...
+                                                     where each robot placed each teammate,
+                                                     judged against ground truth as
+                                                     draco-fleet's placements_verdict.csv
+                                                     (report::EvaluatePlacements): one CSV row
+                                                     per ordered pair on stdout
+  team_netns_check.py held DIR ROBOT...             which version of each teammate's object
+                                                     map each robot holds at the end, against
+                                                     the newest any robot holds
+  team_netns_check.py mission-table WORK CASE...    the mission cases against the in-process
+                                                     run: loops, team ATE, placements, first
+                                                     right placement per pair, every wrong one
 
 Exit 0 when the check holds, 1 (with the reasons on stdout) when it does not.
 """
@@ -168,7 +180,7 @@ def check_file(path):
         elif name.endswith(".g2o"):
             for i, line in enumerate(text.splitlines(), 1):
                 tokens = line.split()
-                if not tokens:
+                if not tokens or tokens[0].startswith("#"):  # a comment (g2o skips them)
                     continue
                 try:
                     numbers(tokens[1:])
@@ -362,6 +374,259 @@ def cmd_table(work, cases):
     return 0
 
 
+# --- placements judged against ground truth (components/report/src/placements.cpp) ---------
+
+
+def read_tum(path):
+    """[(t, x, y, yaw)] of a TUM file (as eval::ReadTum); [] when it does not exist."""
+    out = []
+    if not os.path.exists(path):
+        return out
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            t = line.split()
+            if not t or t[0].startswith("#"):
+                continue
+            v = [float(x) for x in t]
+            qx, qy, qz, qw = v[4:8]
+            out.append((v[0], v[1], v[2],
+                        math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))))
+    return out
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def compose(a, b):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], wrap(a[2] + b[2]))
+
+
+def inverse(a):
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return (-(c * a[0] + s * a[1]), -(-s * a[0] + c * a[1]), -a[2])
+
+
+def associate(est, truth, max_gap_s=0.5):
+    """Pairs (estimate, truth interpolated at its time), as eval::Associate."""
+    pairs, j = [], 0
+    if not truth:
+        return pairs
+    for e in est:
+        while j + 1 < len(truth) and truth[j + 1][0] < e[0]:
+            j += 1
+        if e[0] < truth[0][0] or e[0] > truth[-1][0]:
+            continue
+        t0 = truth[j]
+        t1 = truth[j + 1] if j + 1 < len(truth) else truth[j]
+        span = t1[0] - t0[0]
+        if not (e[0] == t0[0] or e[0] == t1[0]) and span > max_gap_s:
+            continue
+        u = min(max((e[0] - t0[0]) / span, 0.0), 1.0) if span > 0 else 0.0
+        pairs.append((e, (e[0], t0[1] + u * (t1[1] - t0[1]), t0[2] + u * (t1[2] - t0[2]))))
+    return pairs
+
+
+def align(pairs):
+    """T_world_map: the SE(2) alignment of the estimate to the truth (eval::AlignUmeyama)."""
+    n = len(pairs)
+    mex = sum(e[1] for e, _ in pairs) / n
+    mey = sum(e[2] for e, _ in pairs) / n
+    mtx = sum(t[1] for _, t in pairs) / n
+    mty = sum(t[2] for _, t in pairs) / n
+    dot = cross = 0.0
+    for e, t in pairs:
+        ex, ey, tx, ty = e[1] - mex, e[2] - mey, t[1] - mtx, t[2] - mty
+        dot += ex * tx + ey * ty
+        cross += ex * ty - ey * tx
+    th = 0.0 if dot == 0 and cross == 0 else math.atan2(cross, dot)
+    c, s = math.cos(th), math.sin(th)
+    return (mtx - (c * mex - s * mey), mty - (s * mex + c * mey), th)
+
+
+def judge_placements(d, mission, robots, right_m=2.0, right_deg=5.0):
+    """Per ordered pair: verdict (right / wrong / none at the end), final error, first placed,
+    first right, first wrong, mission time placed wrong and the largest wrong error."""
+    kfs, T_wm, end_s = {}, {}, 0.0
+    for r in robots:
+        kfs[r] = read_tum(os.path.join(d, r + ".trajectory.tum"))
+        truth = read_tum(os.path.join(mission, r, "groundtruth.tum"))
+        pairs = associate(kfs[r], truth) if len(kfs[r]) >= 2 else []
+        if len(pairs) >= 2:
+            T_wm[r] = align(pairs)
+            end_s = max(end_s, kfs[r][-1][0])
+    out = []
+    for own in robots:
+        rows = {}
+        path = os.path.join(d, own + ".placements.csv")
+        if os.path.exists(path):
+            with open(path, encoding="utf-8") as f:
+                for row in csv.DictReader(f):
+                    rows.setdefault(row["teammate"], []).append(
+                        (float(row["time_s"]), float(row["placed"]) != 0,
+                         (float(row["x_m"]), float(row["y_m"]), float(row["yaw_rad"]))))
+        for mate in robots:
+            if mate == own:
+                continue
+            p = {"own": own, "teammate": mate, "verdict": "none", "final_err_m": -1.0,
+                 "final_err_deg": -1.0, "first_placed_s": -1.0, "first_right_s": -1.0,
+                 "first_wrong_s": -1.0, "wrong_duration_s": 0.0, "max_wrong_err_m": 0.0,
+                 "changes": len(rows.get(mate, []))}
+            if own in T_wm and mate in T_wm and mate in rows:
+                T_true = compose(inverse(T_wm[own]), T_wm[mate])
+                rs = rows[mate]
+                for i, (t, placed, T) in enumerate(rs):
+                    until = rs[i + 1][0] if i + 1 < len(rs) else end_s
+                    if not placed:
+                        p["verdict"] = "none"
+                        continue
+                    sq = [(a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 for a, b in
+                          ((compose(T, (k[1], k[2], 0.0)), compose(T_true, (k[1], k[2], 0.0)))
+                           for k in kfs[mate])]
+                    err_m = math.sqrt(sum(sq) / len(sq)) if sq else math.hypot(
+                        T[0] - T_true[0], T[1] - T_true[1])
+                    err_deg = abs(wrap(T[2] - T_true[2])) * 180.0 / math.pi
+                    right = err_m <= right_m and err_deg <= right_deg
+                    if p["first_placed_s"] < 0:
+                        p["first_placed_s"] = t
+                    if right and p["first_right_s"] < 0:
+                        p["first_right_s"] = t
+                    if not right:
+                        if p["first_wrong_s"] < 0:
+                            p["first_wrong_s"] = t
+                        p["wrong_duration_s"] += max(0.0, until - t)
+                        p["max_wrong_err_m"] = max(p["max_wrong_err_m"], err_m)
+                    p["verdict"] = "right" if right else "wrong"
+                    p["final_err_m"], p["final_err_deg"] = err_m, err_deg
+            out.append(p)
+    return out
+
+
+PLACEMENT_FIELDS = ("own", "teammate", "verdict", "final_err_m", "final_err_deg",
+                    "first_placed_s", "first_right_s", "first_wrong_s", "wrong_duration_s",
+                    "max_wrong_err_m", "changes")
+
+
+def cmd_placements(d, mission, robots):
+    w = csv.writer(sys.stdout, lineterminator="\n")
+    w.writerow(PLACEMENT_FIELDS)
+    for p in judge_placements(d, mission, robots):
+        w.writerow([("%.3f" % p[k]) if isinstance(p[k], float) else p[k]
+                    for k in PLACEMENT_FIELDS])
+    return 0
+
+
+def read_placements(path):
+    with open(path, encoding="utf-8") as f:
+        return {(r["own"], r["teammate"]): r for r in csv.DictReader(f)}
+
+
+def true_accepted(path):
+    """(accepted, true positives) of the team's inter-robot loops (draco-eval's line)."""
+    import re
+    with open(path, encoding="utf-8") as f:
+        m = re.search(r"(\d+) accepted, (\d+) TP", f.read())
+    return (int(m.group(1)), int(m.group(2))) if m else (-1, -1)
+
+
+def cmd_held(d, robots):
+    held = {}
+    for r in robots:
+        for t in stats(d, r)["teammates"]:
+            held[(r, robots[t["robot_id"]])] = t["held_map_version"]
+    newest = {m: max(v for (_, mm), v in held.items() if mm == m) for m in robots}
+    print("; ".join("%s holds %s" % (r, ", ".join(
+        "%s v%d%s" % (m, held[(r, m)], "" if held[(r, m)] == newest[m] else
+                      " (newest held v%d)" % newest[m]) for m in robots if m != r))
+        for r in robots))
+    return 0
+
+
+def cmd_mission_table(work, cases):
+    ref_eval = os.path.join(work, "ref", "eval.txt")
+    ref_pl = read_placements(os.path.join(work, "ref", "placements.csv"))
+    ref_rows = eval_table(ref_eval)
+    head = ("%-22s %-8s %4s %9s %13s %5s %-27s %-9s" %
+            ("case", "robot", "exit", "acc", "team m", "r/w/n", "first right s (teammates)",
+             "vs in-process"))
+    print(head)
+    print("-" * len(head))
+    wrong = []
+
+    def first_rights(pl, own):
+        return "/".join(
+            "%.0f" % float(p["first_right_s"]) if float(p["first_right_s"]) >= 0 else "-"
+            for (o, _), p in sorted(pl.items()) if o == own)
+
+    def rwn(pl, own):
+        v = [p["verdict"] for (o, _), p in pl.items() if o == own]
+        return "%d/%d/%d" % (v.count("right"), v.count("wrong"), v.count("none"))
+
+    ref_acc, ref_tp = true_accepted(ref_eval)
+    for r, (acc, ate, _) in ref_rows.items():
+        print("%-22s %-8s %4s %9s %13s %5s %-27s %-9s" % (
+            "in-process", r, "-", str(acc), "%.3f" % ate, rwn(ref_pl, r),
+            first_rights(ref_pl, r), "-"))
+    totals = ["in-process: team %d accepted, %d true" % (ref_acc, ref_tp)]
+    for case in cases:
+        d = os.path.join(work, case)
+        meta = read_meta(os.path.join(d, "meta.txt"))
+        title = meta.get("title", case)[:22]
+        try:
+            pl = read_placements(os.path.join(d, "placements.csv"))
+        except OSError:
+            pl = {}
+        cmp = {}
+        try:
+            cmp = {c[0]: c for c in compare(ref_eval, os.path.join(d, "eval.txt"))}
+            acc_all, tp_all = true_accepted(os.path.join(d, "eval.txt"))
+            totals.append("%s: team %d accepted, %d true" % (title, acc_all, tp_all))
+        except (SystemExit, OSError):
+            pass
+        for r in meta.get("robots", "").split():
+            acc = team = "-"
+            verdict = "-"
+            if r in cmp and cmp[r][2] is not None:
+                _, a, b, same = cmp[r]
+                acc = "%d (%+d)" % (b[0], b[0] - a[0])
+                team = "%.3f (%+.0f%%)" % (b[1], 100.0 * (b[1] - a[1]) / max(a[1], 1e-3))
+                # Placements: the same verdict for every pair as in-process.
+                same_pl = all(pl.get(k, {}).get("verdict") == v["verdict"]
+                              for k, v in ref_pl.items() if k[0] == r)
+                verdict = ("within 10%" if same else "NOT within 10%") + (
+                    "" if same_pl else ", placements differ")
+            print("%-22s %-8s %4s %9s %13s %5s %-27s %-9s" % (
+                title, r, meta.get("exit." + r, "-"), acc, team, rwn(pl, r) if pl else "-",
+                first_rights(pl, r) if pl else "-", verdict))
+        walls = [float(meta["wall." + r]) for r in meta.get("robots", "").split()
+                 if "wall." + r in meta]
+        if walls and "mission_s" in meta:
+            totals.append("%s: %s s of mission in %.0f s of wall time (%.2fx; paced at %sx)" % (
+                title, meta["mission_s"], max(walls), float(meta["mission_s"]) / max(walls),
+                meta.get("pace", "-")))
+        if meta.get("held"):
+            totals.append("%s: object maps held at the end: %s" % (title, meta["held"]))
+        for (o, m), p in sorted(pl.items()):
+            if float(p["first_wrong_s"]) >= 0:
+                wrong.append("%s: %s placed %s wrong from mission %.0f s for %.0f s (worst %.2f "
+                             "m; at the end %s, %.2f m / %.2f deg)" % (
+                                 title, o, m, float(p["first_wrong_s"]),
+                                 float(p["wrong_duration_s"]), float(p["max_wrong_err_m"]),
+                                 p["verdict"], float(p["final_err_m"]),
+                                 float(p["final_err_deg"])))
+    for t in totals:
+        print(t)
+    print("WRONG placements: %d" % len(wrong))
+    for w in wrong:
+        print("  " + w)
+    print("acc: accepted inter-robot loops (change against in-process); team m: team ATE "
+          "(change); r/w/n: teammates placed right / wrong / not at the end (within 2 m and "
+          "5 deg of the truth); first right s: mission time of the first right placement of "
+          "each teammate in name order")
+    return 0
+
+
 def main(argv):
     if len(argv) < 2:
         print(__doc__)
@@ -377,6 +642,12 @@ def main(argv):
         return cmd_heard_after(args[0], args[1], float(args[2]), args[3:])
     if cmd == "table":
         return cmd_table(args[0], args[1:])
+    if cmd == "placements":
+        return cmd_placements(args[0], args[1], args[2:])
+    if cmd == "held":
+        return cmd_held(args[0], args[1:])
+    if cmd == "mission-table":
+        return cmd_mission_table(args[0], args[1:])
     print(__doc__)
     return 2
 
