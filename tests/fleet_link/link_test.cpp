@@ -411,6 +411,79 @@ TEST(LinkEndpoint, ARestartedTeammateGetsTheLastMapWithoutNews) {
   EXPECT_EQ(b.stats().by_kind[2].frames_sent, 2u);
 }
 
+// A transport whose link can be cut (a bridge port down): while cut, nothing it sends leaves
+// and nothing sent to it arrives.
+class CuttableTransport : public middleware::Transport {
+ public:
+  CuttableTransport(std::unique_ptr<middleware::Transport> inner, const bool* cut)
+      : inner_(std::move(inner)), cut_(cut) {}
+  bool Send(const middleware::Frame& frame) override { return *cut_ || inner_->Send(frame); }
+  std::vector<middleware::Frame> Receive() override {
+    auto frames = inner_->Receive();
+    if (*cut_) frames.clear();
+    return frames;
+  }
+  std::string Describe() const override { return inner_->Describe(); }
+  middleware::TransportCounters counters() const override { return inner_->counters(); }
+
+ private:
+  std::unique_ptr<middleware::Transport> inner_;
+  const bool* cut_;
+};
+
+// Robot a's link is down from 15 s to 75 s (longer than silence_s: each marks the other
+// silent). Meanwhile b's map grows from 6 to 8 objects and b adds keyframes 5-9, and then b's
+// map and poses never change again (its recording ended). Once the link is back, a must hold
+// b's newest map and every keyframe pose: b sends its map again to a teammate whose
+// acknowledged version is behind its newest, and its full pose list to one heard again after
+// silence. Before, a kept the 6-object map and 5 poses to the end.
+TEST(LinkEndpoint, ATeammateCutOffGetsWhatItMissedWhenTheLinkIsBack) {
+  const std::string bus = Bus();
+  LinkOptions o0 = Options(0, 1), o1 = Options(1, 2);
+  o0.team = o1.team = {0, 1};
+  o0.channel.team_size = o1.channel.team_size = 2;
+  bool cut = false;
+  LinkEndpoint a(
+      o0, std::make_unique<CuttableTransport>(middleware::MakeInProcessTransport(bus, 0), &cut));
+  LinkEndpoint b(o1, middleware::MakeInProcessTransport(bus, 1));
+  const auto poses = [](int n) {
+    std::vector<msgs::KeyframePoseEntry> p;
+    for (int k = 0; k < n; ++k) p.push_back({k, 2.0 * k, {1.0 * k, 0.5 * k, 0.1 * k}, 20});
+    return p;
+  };
+  std::map<int, msgs::KeyframePoseEntry> held_poses;
+  std::size_t held_objects = 0;
+  int silent_events = 0;
+  for (double t = 0.0; t <= 120.0; t += 0.5) {
+    cut = t >= 15.0 && t < 75.0;
+    const auto in = a.Tick(t, nullptr);
+    for (const auto& m : in.object_maps) held_objects = m.map.objects.size();
+    for (const auto& m : in.poses) {
+      for (const auto& e : m.poses) held_poses[e.index] = e;
+    }
+    for (const auto& e : in.events)
+      silent_events += e.kind == msgs::TeammateEventKind::kSilent ? 1 : 0;
+    msgs::FleetOutgoing out;
+    if (t == 1.0 || t == 20.0) {
+      out.has_object_map = true;
+      out.object_map = Map(t == 1.0 ? 6 : 8, 0.0);
+      out.has_poses = true;
+      out.poses = poses(t == 1.0 ? 5 : 10);
+    }
+    b.Tick(t, out.has_object_map ? &out : nullptr);
+    if (t == 14.0) {
+      ASSERT_EQ(held_objects, 6u);  // before the cut: the first map and poses arrived
+      ASSERT_EQ(held_poses.size(), 5u);
+    }
+  }
+  EXPECT_EQ(silent_events, 1);
+  EXPECT_EQ(held_objects, 8u);
+  EXPECT_EQ(a.teammates().at(1).held_map.objects.size(), 8u);
+  ASSERT_EQ(held_poses.size(), 10u);
+  EXPECT_DOUBLE_EQ(held_poses.at(9).T_map_kf.x_m, 9.0);
+  EXPECT_EQ(b.teammates().at(0).acked_own_version, a.teammates().at(1).held_map_version);
+}
+
 TEST(LinkEndpoint, DeltasThatGrowTheHeldMapPastTheBoundAreRejected) {
   const std::string bus = Bus();
   LinkOptions o0 = Options(0, 1), o1 = Options(1, 2);

@@ -150,10 +150,12 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s)
     last_map_ = out.object_map;
     has_last_map_ = true;
   } else if (has_last_map_) {
-    // A listening teammate holds nothing of our map (joined, restarted, lost the full map):
-    // send it again, at most every resend_map_s.
+    // A listening teammate that does not hold our newest map (joined, restarted, lost the
+    // full map, or missed the last updates while its link was down and our map stopped
+    // changing since): send it again, at most every resend_map_s (a delta from the version it
+    // holds when that is still known).
     for (const auto& [id, t] : teammates_) {
-      if (t.known && !t.left && !t.silent && t.acked_own_version == 0 &&
+      if (t.known && !t.left && !t.silent && t.acked_own_version != object_encoder_.version() &&
           now_s - t.last_map_sent_s >= options_.resend_map_s) {
         out.has_object_map = true;
         out.object_map = last_map_;
@@ -276,6 +278,7 @@ void LinkEndpoint::ReceiveAll(double now_s) {
       t->left = f.payload[12] != 0;
       t->hears_us = ((GetU64(f.payload, 13, 8) >> options_.robot_id) & 1ULL) != 0;
       t->last_heard_s = now_s;
+      if (t->silent) send_full_poses_ = true;  // back from silence: it missed pose updates
       t->silent = false;
       continue;
     }
@@ -423,6 +426,7 @@ void LinkEndpoint::Deliver(const Frame& f, double now_s, msgs::FleetIncoming* in
     }
     last_seq = h.seq;
     t->last_heard_s = now_s;
+    if (t->silent) send_full_poses_ = true;  // back from silence: it missed pose updates
     t->silent = false;
     ++t->frames_received;
     ++t->frames_since_restart;
