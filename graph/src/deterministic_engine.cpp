@@ -278,10 +278,11 @@ void DeterministicEngine::RunUntil(Time limit) {
       if (limit == Time::Max() || !FireNextTimerUpTo(limit)) break;
       continue;
     }
+    // Timers due at or before the next event fire first, one at a time: what a timer publishes
+    // may be stamped before that event and must be dispatched before it.
+    if (FireNextTimerUpTo(queue_.top().stamp)) continue;
     Event ev = queue_.top();
     queue_.pop();
-    FireTimersUpTo(ev.stamp);
-    if (failed()) break;
     if (ev.stamp > now_) now_ = ev.stamp;
     Pace(ev.stamp);
     Dispatch(ev);

@@ -460,6 +460,44 @@ TEST(Islands, WhatOneIslandHearsOfAnotherShowsInItsOutputs) {
   }
 }
 
+// A timer's output must reach its consumers before any message stamped later, also when that
+// message came from another part early (an upstream part runs ahead and its messages wait in
+// the queue): the robot's state (its 0.5 s timer) joined with the latest source value (from
+// the upstream part) gives the single engine's sums on any number of threads. Before, the
+// engine popped the early message, fired the timers up to its stamp and dispatched it before
+// what those timers had just published.
+TEST(Islands, ATimersOutputComesBeforeLaterMessagesFromAnotherPart) {
+  const auto run = [](const std::string& name, int threads) {
+    const std::string dir = TempDir(name);
+    const std::string y =
+        "schema: 1\ncomponents:\n"
+        "  - { id: src, type: example.Ticker, params: { count: 300, period_s: "
+        "0.07, first: 1, step: 1 } }\n"
+        "  - { id: robot, type: test.MailRobot, inputs: { in: src/value }, "
+        "params: { bus: " +
+        name +
+        ", me: 0, members: 1, delay_s: 0.25 } }\n"
+        "  - { id: join, type: example.Sum, inputs: { a: robot/state, b: "
+        "src/value } }\n"
+        "  - { id: sink, type: example.CsvSink, inputs: { in: join/out } }\n";
+    auto g = LoadGraphString(y, name + ".yaml");
+    RunOptions o;
+    o.output_dir = dir;
+    o.until = Time::FromSeconds(20.0);
+    o.island_threads = threads;
+    const RunResult r = RunDeterministic(*g, o);
+    EXPECT_TRUE(r.ok) << r.error;
+    std::string out = ReadFile(dir + "/values.csv");
+    std::filesystem::remove_all(dir);
+    return out;
+  };
+  const std::string one = run("timer_order_one", 0);
+  EXPECT_GT(std::count(one.begin(), one.end(), '\n'), 30);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(run("timer_order_" + std::to_string(i), 1 + i % 2), one) << i;
+  }
+}
+
 TEST(Islands, AMessageStampedBeforeItsEventToAnotherPartIsAnError) {
   // lagger (upstream part) feeds the robot (downstream part) stamps 0.5 s in the past: the
   // robot's part may already have run beyond them, so the run stops naming the component.
