@@ -219,11 +219,6 @@ void DeterministicEngine::Dispatch(Event& ev) {
   }
 }
 
-void DeterministicEngine::FireTimersUpTo(Time t) {
-  while (!failed() && FireNextTimerUpTo(t)) {
-  }
-}
-
 bool DeterministicEngine::FireNextTimerUpTo(Time t) {
   TimerState* due = nullptr;
   for (auto& ts : timers_) {

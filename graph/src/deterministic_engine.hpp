@@ -92,7 +92,6 @@ class DeterministicEngine {
             std::shared_ptr<const void> payload);
   void ScheduleSource(std::uint32_t node);
   void Dispatch(Event& event);
-  void FireTimersUpTo(Time t);
   bool FireNextTimerUpTo(Time t);  // the earliest timer due at or before t; false: none
   void Call(std::uint32_t node, Reason reason, const std::string& timer);
   void Pace(Time stamp);

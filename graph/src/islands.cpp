@@ -46,8 +46,8 @@ std::uint32_t Root(std::vector<std::uint32_t>& parent, std::uint32_t x) {
 
 // At most `n` engines run at once (RunOptions::island_threads). A mutex and a condition
 // variable, not std::counting_semaphore: libstdc++ 12's release() wakes waiters only when the
-// count was 0 (GCC bug 98033), which can leave a waiter asleep with a slot free; a marina
-// replay (tuning world 4) stalled at one mission time until a debugger attached.
+// count was 0 (GCC bug 98033), which can leave a waiter asleep with a slot free (a team
+// replay of tuning world 4 stalled at one mission time until a debugger attached).
 class Slots {
  public:
   explicit Slots(int n) : free_(std::max(1, n)) {}
