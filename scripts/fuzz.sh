@@ -9,8 +9,8 @@
 #   --build-dir DIR  clang build folder, configured with -DDRACO_FUZZ=ON when it has no cache
 #                    yet (default build-fuzz; env FUZZ_BUILD_DIR)
 #   --jobs N         build jobs (default nproc; env JOBS)
-#   TARGET...        fuzz_fleet_codec fuzz_graph_loader fuzz_recording fuzz_rosbag
-#                    fuzz_pointcloud (default all)
+#   TARGET...        fuzz_fleet_codec fuzz_udp_datagram fuzz_graph_loader fuzz_recording
+#                    fuzz_rosbag fuzz_pointcloud (default all)
 # Environment: FUZZ_TIMEOUT (seconds per input before it counts as a hang, default 5),
 # FUZZ_RSS_MB (default 2048), FUZZ_ARGS (more libFuzzer flags, e.g. "-runs=1000000").
 #
@@ -27,7 +27,7 @@ build_dir=${FUZZ_BUILD_DIR:-build-fuzz}
 jobs=${JOBS:-$(nproc)}
 timeout=${FUZZ_TIMEOUT:-5}
 rss_mb=${FUZZ_RSS_MB:-2048}
-all_targets=(fuzz_fleet_codec fuzz_graph_loader fuzz_recording fuzz_rosbag fuzz_pointcloud)
+all_targets=(fuzz_fleet_codec fuzz_udp_datagram fuzz_graph_loader fuzz_recording fuzz_rosbag fuzz_pointcloud)
 targets=()
 while [ $# -gt 0 ]; do
   case "$1" in

@@ -71,8 +71,21 @@ int main(int argc, char** argv) {
                  "robot graph YAML (default graphs/robot.yaml, graphs/robot-bag.yaml with --bag, "
                  "from the data search path)");
   app.add_option("--out", out_dir, "output folder (default runs/robot-<mission>)");
-  app.add_option("--transport", setup.transport, "dds (default) or inproc (alone: no teammates)")
-      ->check(CLI::IsMember({"dds", "inproc"}));
+  app.add_option("--transport", setup.transport,
+                 "dds (default), udp (plain datagrams to --udp-peers: a slow acoustic modem) or "
+                 "inproc (alone: no teammates)")
+      ->check(CLI::IsMember({"dds", "udp", "inproc"}))
+      ->envname("DRACO_TRANSPORT");
+  app.add_option("--udp-peers", setup.udp_peers,
+                 "with --transport udp: every teammate as host:port or host, comma-separated "
+                 "(this robot may be listed too)")
+      ->delimiter(',')
+      ->envname("DRACO_UDP_PEERS");
+  app.add_option("--udp-port", setup.udp_port,
+                 "with --transport udp: the UDP port to listen on (default: the graph's "
+                 "link.udp_port, 7470)")
+      ->check(CLI::Range(1, 65535))
+      ->envname("DRACO_UDP_PORT");
   app.add_option("--domain", setup.domain_id,
                  "DDS domain id (default: the graph's link.domain_id, 0 unless set there)")
       ->check(CLI::Range(0, 230))
@@ -134,7 +147,13 @@ int main(int argc, char** argv) {
       return 1;
     }
     setup.robot_id = static_cast<int>(it - setup.team.begin());
-    setup.lockstep = !no_lockstep && setup.transport == "dds";
+    setup.lockstep = !no_lockstep && setup.transport != "inproc";
+    if (setup.transport == "udp" && setup.udp_peers.empty()) {
+      draco::log::Error(
+          "draco-robot: --transport udp needs --udp-peers (every teammate as "
+          "host:port or host, comma-separated; or DRACO_UDP_PEERS)");
+      return 1;
+    }
     if (setup.transport == "dds") {
       const auto dds = draco::app::ChooseDdsConfigFromEnvironment(dds_config);
       setup.dds_config = dds.file;  // "": Cyclone reads $CYCLONEDDS_URI

@@ -95,6 +95,14 @@ std::vector<std::string> RobotOverrides(const RobotSetup& s, const std::string& 
   o.insert(o.end(), common.begin(), common.end());
   if (s.domain_id >= 0) o.push_back(p + "link.domain_id=" + std::to_string(s.domain_id));
   if (!s.dds_config.empty()) o.push_back(p + "link.dds_config=" + s.dds_config);
+  if (!s.udp_peers.empty()) {
+    std::string quoted = "[";  // host:port quoted: a YAML flow list of strings
+    for (std::size_t i = 0; i < s.udp_peers.size(); ++i) {
+      quoted += (i ? ", \"" : "\"") + s.udp_peers[i] + "\"";
+    }
+    o.push_back(p + "link.udp_peers=" + quoted + "]");
+  }
+  if (s.udp_port > 0) o.push_back(p + "link.udp_port=" + std::to_string(s.udp_port));
   if (s.ros2_domain_id >= 0) {
     o.push_back(p + "monitor.enabled=true");
     o.push_back(p + "monitor.domain_id=" + std::to_string(s.ros2_domain_id));

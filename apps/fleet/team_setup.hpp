@@ -17,10 +17,12 @@ struct RobotSetup {
   std::vector<std::string> team;     // robot names in mission order; the id is the position
   int robot_id = 0;
   std::string world;              // the mission's world (selection radius on the airplane)
-  std::string transport = "dds";  // or "inproc"
+  std::string transport = "dds";  // or "udp", "inproc"
   std::string bus = "team";
   int domain_id = -1;  // DDS domain; < 0: the graph's (link.domain_id)
   std::string dds_config;
+  std::vector<std::string> udp_peers;  // transport udp: host:port or host of every teammate
+  int udp_port = -1;                   // transport udp; < 0: the graph's (link.udp_port)
   int ros2_domain_id = -1;  // >= 0: fleet.Ros2Monitor on, on this domain (never the link's)
   std::string ros2_dds_config;
   bool lockstep = true;

@@ -6,8 +6,10 @@
 // over a few ticks, then closes (a goodbye clock frame). Every frame it hands its transport
 // is captured: each payload becomes a seed "<kind byte><payload>" and the frames together a
 // seed of the link path ("0" then the frames in fuzz_fleet_codec.cpp's LinkFrames layout).
+// With UDP_OUT_DIR, the first frame of each kind is also written there as the UDP datagram
+// the plain-UDP transport would send (the seeds of fuzz_udp_datagram).
 //
-//   gen_fleet_corpus OUT_DIR
+//   gen_fleet_corpus OUT_DIR [UDP_OUT_DIR]
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -118,8 +120,8 @@ void Write(const std::filesystem::path& file, const std::vector<std::uint8_t>& b
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::fprintf(stderr, "usage: gen_fleet_corpus OUT_DIR\n");
+  if (argc != 2 && argc != 3) {
+    std::fprintf(stderr, "usage: gen_fleet_corpus OUT_DIR [UDP_OUT_DIR]\n");
     return 2;
   }
   log::SetLevel(log::Level::kWarn);
@@ -197,6 +199,11 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < sent.size(); ++i) {
     const middleware::Frame& f = sent[i];
     const int n = per_kind[f.kind]++;
+    if (argc == 3 && n == 0) {
+      std::filesystem::create_directories(argv[2]);
+      Write(std::filesystem::path(argv[2]) / ("kind-" + std::to_string(f.kind)),
+            middleware::EncodeUdpDatagram(f));
+    }
     if (f.kind >= 1 && f.kind <= 6 && n < 3) {
       std::vector<std::uint8_t> seed = {f.kind};
       seed.insert(seed.end(), f.payload.begin(), f.payload.end());

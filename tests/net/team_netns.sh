@@ -43,6 +43,14 @@
 #   12  unicast, charlie's link cut (bridge port down) from mission time 900 s to 1020 s
 #       (DRACO_NETNS_CUT="FROM TO", mission seconds; at wall FROM / P and TO / P after the
 #       start), then back
+#   13  as 12, and bravo SIGKILLed while charlie is cut off (mission time 930 s, DRACO_NETNS_KILL
+#       "AT BACK" in mission seconds) and started again 60 s of mission later; the new bravo
+#       replays its recording from the start as fast as it can (--rate 0: a rebooted vehicle
+#       processing its log to catch up) until the lock-step holds it with the team
+#   14  the whole team at 1 kbit/s with 20 % loss over plain UDP to static peers (draco-robot
+#       --transport udp: no DDS discovery), each daemon on its own clock (--no-lockstep, as
+#       vehicles at sea), every link tbf 1000 x P bit/s, link.team_rate_bps=1000
+#   15  as 14 at 5 kbit/s
 #
 #   sudo tests/net/team_netns.sh build/apps/sim/draco-sim build/apps/fleet/draco-fleet \
 #     build/apps/fleet/draco-robot build/apps/eval/draco-eval .
@@ -73,7 +81,8 @@ slow_profile=${DRACO_NETNS_SLOW_PROFILE:-acoustic}  # the DDS profile of cases 5
 slow_reliability=${DRACO_NETNS_SLOW_RELIABILITY:-best_effort}  # and their DDS reliability
 mission_dir=${DRACO_NETNS_MISSION:-}  # a recorded mission instead of the simulated 40 s one
 pace=${DRACO_NETNS_PACE:-4}           # x real time, the mission cases (9-12)
-read -r cut_from_s cut_to_s <<<"${DRACO_NETNS_CUT:-900 1020}"  # case 12, mission seconds
+read -r cut_from_s cut_to_s <<<"${DRACO_NETNS_CUT:-900 1020}"  # cases 12, 13, mission seconds
+read -r kill_at_s back_at_s <<<"${DRACO_NETNS_KILL:-930 990}"  # case 13, mission seconds
 
 skip() {
   echo "SKIP: $*"
@@ -269,25 +278,27 @@ run_team() {
   echo "== $title: $(secs $(($(now_us) - start))) s"
 }
 
-# launch_robot ROBOT: starts ROBOT's daemon in its namespace (again, for a restart: its log is
-# appended to). Called from run_team, whose dir, rate, profile, run_args and pid_of it uses.
+# launch_robot ROBOT [RATE]: starts ROBOT's daemon in its namespace (again, for a restart: its
+# log is appended to), paced at RATE (default the case's). Called from run_team, whose dir,
+# rate, profile, run_args and pid_of it uses.
 launch_robot() {
-  local r=$1
+  local r=$1 robot_rate=${2:-$rate}
   # The flags draco-fleet --mode dds gives each daemon (apps/fleet/fleet_main.cpp), with the
   # profile of the case; no DRACO_* or CYCLONEDDS_URI from the caller's environment.
   ip netns exec "$pfx-$r" env -u CYCLONEDDS_URI -u DRACO_MISSION -u DRACO_BAG -u DRACO_TEAM \
     -u DRACO_ROBOT -u DRACO_DOMAIN -u DRACO_DDS_CONFIG DRACO_DDS_PEERS="$peers" \
-    "$robot" --mission "$mission" --robot "$r" --out "$dir" --graph "$graph" --rate "$rate" \
+    "$robot" --mission "$mission" --robot "$r" --out "$dir" --graph "$graph" --rate "$robot_rate" \
     --quiet --log-level info --dds-config "$src/config/dds/$profile.xml" --domain "$domain" \
     --set link.lockstep_timeout_s=5 "${run_args[@]}" >>"$dir/$r.log" 2>&1 &
   pid_of[$r]=$!
   pids+=($!)
 }
-# Events of run_team: SIGKILL a robot's daemon; start it again (tracked as running again).
+# Events of run_team: SIGKILL a robot's daemon; start it again (tracked as running again),
+# optionally at another pace.
 kill_robot() { kill -KILL "${pid_of[$1]}" 2>/dev/null; }
 restart_robot() {
   wait "${pid_of[$1]}" 2>/dev/null
-  launch_robot "$1"
+  launch_robot "$1" "${2:-}"
   unset "done_at[$1]"
 }
 
@@ -629,6 +640,67 @@ if case_on 12; then
   echo "note=$cut_robot's bridge port down from $cut_at to $back_at s wall (mission <= ${cut_from_s}-${cut_to_s} s at ${pace}x); frames sent after mission time $bound s reached both sides; $lsto lock-step timeouts" >>"$work/c12/meta.txt"
   ran+=(c12)
 fi
+
+# --- 13: as 12, and bravo killed while charlie is cut off, restarted 60 s later --------------
+if case_on 13; then
+  [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
+  cut_at=$(awk -v m="$cut_from_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  back_at=$(awk -v m="$cut_to_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  kill_at=$(awk -v m="$kill_at_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  again_at=$(awk -v m="$back_at_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  title="13 cut ${cut_from_s}-${cut_to_s} s, bravo killed ${kill_at_s}-${back_at_s} s ${pace}x"
+  run_team c13 "$title" unicast "$pace" "$mission_timeout" \
+    "$cut_at" "ip -n $sw link set p-$cut_robot down" \
+    "$kill_at" "kill_robot bravo" \
+    "$again_at" "restart_robot bravo 0" \
+    "$back_at" "ip -n $sw link set p-$cut_robot up" \
+    -- --set link.lockstep_timeout_s=2
+  check_case c13 "$title" heard no-compare
+  placements_of "$work/c13" "$work/c13" "$title"
+  mission_meta c13
+  python3 - "$work/c13" <<'PY' || fail "13: the teammates did not hear the restarted bravo"
+import json, sys
+for r in ("alpha", "charlie"):
+    s = json.load(open("%s/%s.link_stats.json" % (sys.argv[1], r)))
+    b = [t for t in s["teammates"] if t["robot_id"] == 1][0]
+    assert b["restarts"] >= 1 and b["frames_since_restart"] > 0, (r, b)
+PY
+  lsto=$(python3 -c "import json,sys; print(sum(json.load(open('$work/c13/%s.link_stats.json' % r))['counters']['lockstep_timeouts'] for r in sys.argv[1:]))" "${robots[@]}")
+  echo "note=$cut_robot's bridge port down from $cut_at to $back_at s wall (mission <= ${cut_from_s}-${cut_to_s} s at ${pace}x); bravo SIGKILLed at $kill_at s and started again at $again_at s wall (mission ~${kill_at_s} and ~${back_at_s} s), replaying from the start at --rate 0 until in step; $lsto lock-step timeouts" >>"$work/c13/meta.txt"
+  ran+=(c13)
+fi
+
+# --- 14, 15: the team over plain UDP at 1 and 5 kbit/s, 20 % loss, each on its own clock ------
+for c in 14 15; do
+  case_on $c || continue
+  if ! command -v tc >/dev/null || [ -z "$loss_tool" ]; then
+    echo "SKIP case $c: needs tc and nft or iptables"
+    continue
+  fi
+  [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
+  if [ $c = 14 ]; then bps=1000; else bps=5000; fi
+  title="$c UDP $((bps / 1000))k+20% ${pace}x"
+  shaped=()
+  for r in "${robots[@]}"; do
+    if ! err=$(shape "$r" "$(wall_rate "$bps")" 200 2>&1); then
+      fail "case $c: cannot shape $r's link: $err"
+      break
+    fi
+    shaped+=("$r")
+  done
+  if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
+    run_team "c$c" "$title" unicast "$pace" "$mission_timeout" -- --transport udp \
+      --udp-peers "$peers" --no-lockstep --set "link.team_rate_bps=$bps"
+    note="plain UDP, no lock-step; every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
+    for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "20 %")"; done
+    check_case "c$c" "$title" heard no-compare
+    placements_of "$work/c$c" "$work/c$c" "$title"
+    mission_meta "c$c"
+    echo "note=$note" >>"$work/c$c/meta.txt"
+    ran+=("c$c")
+  fi
+  for r in "${shaped[@]}"; do unshape "$r"; done
+done
 mission_ran=()
 for c in "${ran[@]}"; do [ -f "$work/$c/placements.csv" ] && mission_ran+=("$c"); done
 reported=0

@@ -1,5 +1,6 @@
 // Runtime adapter fleet.Link: a robot's end of the fleet link (LinkEndpoint) over the
-// in-process bus (deterministic replay, tests) or Cyclone DDS (one daemon per robot).
+// in-process bus (deterministic replay, tests), Cyclone DDS (one daemon per robot) or plain UDP
+// to static peers (a slow acoustic modem: no discovery traffic).
 // One input per kind of message to send and one output per kind of message received, so the
 // team stages (components/agent) wire to exactly what they send and use.
 #include <filesystem>
@@ -25,7 +26,8 @@ class LinkComponent final : public graph::Component {
     spec.Doc(
         "A robot's end of the fleet link: compact encoding, object-map and pose deltas, the "
         "acoustic channel model (team budget, latency, loss, turn-taking), teammate liveness "
-        "and restarts; in-process bus or Cyclone DDS. Writes <prefix>link_stats.json and "
+        "and restarts; in-process bus, Cyclone DDS or plain UDP to static peers. Writes "
+        "<prefix>link_stats.json and "
         "<prefix>link_traffic.csv.");
     const auto send = [](const char* doc) {
       return graph::InputOptions{.trigger = false, .depth = 4096, .required = false, .doc = doc};
@@ -56,7 +58,8 @@ class LinkComponent final : public graph::Component {
     spec.Param("robot_id", &o_.robot_id, {.doc = "own robot id", .min = 0, .max = 63});
     spec.Param("team", &team_,
                {.doc = "robot ids of the team (own included)", .min = 0, .max = 63});
-    spec.Param("transport", &transport_, {.doc = "link transport", .choices = {"inproc", "dds"}});
+    spec.Param("transport", &transport_,
+               {.doc = "link transport", .choices = {"inproc", "dds", "udp"}});
     spec.Param("bus", &bus_, {.doc = "in-process bus name (transport inproc)"});
     spec.Param("domain_id", &domain_id_,
                {.doc = "DDS domain (transport dds)", .min = 0, .max = 230});
@@ -75,6 +78,13 @@ class LinkComponent final : public graph::Component {
                        "network is gone is noticed after it (logged; 0: no lease)",
                 .unit = "s",
                 .min = 0.0});
+    spec.Param("udp_port", &udp_.port,
+               {.doc = "UDP port to listen on (transport udp)", .min = 1, .max = 65535});
+    spec.Param("udp_bind_address", &udp_.bind_address,
+               {.doc = "IPv4 address to listen on (transport udp)"});
+    spec.Param("udp_peers", &udp_.peers,
+               {.doc = "every teammate as host:port or host (then udp_port), this robot may be "
+                       "listed too (transport udp)"});
     spec.Param("lockstep", &o_.lockstep,
                {.doc = "replay in step with the teammates' mission clocks (DDS replays)"});
     spec.Param("lockstep_timeout_s", &o_.lockstep_timeout_s,
@@ -122,6 +132,10 @@ class LinkComponent final : public graph::Component {
         d.config_file = dds_config_;
         d.reliability = middleware::ParseDdsReliability(dds_reliability_);
         transport = middleware::MakeDdsTransport(d);
+      } else if (transport_ == "udp") {
+        middleware::UdpOptions u = udp_;
+        u.robot_id = static_cast<std::uint16_t>(o_.robot_id);
+        transport = middleware::MakeUdpTransport(u);
       } else {
         transport =
             middleware::MakeInProcessTransport(bus_, static_cast<std::uint16_t>(o_.robot_id));
@@ -197,6 +211,7 @@ class LinkComponent final : public graph::Component {
   LinkOptions o_;
   std::vector<int> team_{0, 1, 2};
   std::string transport_ = "inproc";
+  middleware::UdpOptions udp_;
   std::string bus_ = "team";
   int domain_id_ = 0;
   std::string dds_config_;

@@ -1,11 +1,14 @@
-// Transports carry link frames between robot processes (Cyclone DDS) or between robots in one
-// process (an in-process bus, used by deterministic replay and tests). Both behave the same
+// Transports carry link frames between robot processes (Cyclone DDS, or plain UDP datagrams to
+// static peers: the modem-like link) or between robots in one process (an in-process bus, used
+// by deterministic replay and tests). Both behave the same
 // above this interface: the acoustic channel model (channel.hpp) decides when a frame is
 // delivered; a transport only moves bytes, never blocks, and never throws on what a peer sent.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -79,5 +82,39 @@ void ValidateDdsOptions(const DdsOptions& options);
 // option (ValidateDdsOptions) and std::runtime_error when DDS cannot start (the message
 // names the domain and the config file).
 std::unique_ptr<Transport> MakeDdsTransport(const DdsOptions& options);
+
+// The settings of a robot's plain-UDP link: one datagram per frame to every peer, no
+// discovery, no acknowledgements, no resends (the fleet link's own protocol resends what
+// matters). What a team on a slow acoustic modem needs: DDS's discovery and reliability
+// traffic alone fills 1 kbit/s (docs/fleet.md, "A team across network namespaces").
+struct UdpOptions {
+  std::uint16_t robot_id = 0;
+  std::string bind_address = "0.0.0.0";  // IPv4 address to listen on
+  int port = 7470;                       // UDP port to listen on (1 to 65535)
+  // Every teammate as "host:port" or "host" (then `port`), IPv4 addresses or host names; may
+  // list this robot too (its own datagrams come back and are counted as own). A frame for one
+  // robot goes to the address that robot's frames came from once one has arrived, else to
+  // every peer.
+  std::vector<std::string> peers;
+};
+
+// Checks every field and resolves every peer; throws std::invalid_argument naming the field,
+// the value and what was expected.
+void ValidateUdpOptions(const UdpOptions& options);
+
+// Plain UDP transport (IPv4). Throws std::invalid_argument for a bad option and
+// std::runtime_error when the socket cannot be made or bound (the message names the address
+// and port).
+std::unique_ptr<Transport> MakeUdpTransport(const UdpOptions& options);
+
+// The UDP datagram of a frame: magic "DRL", version 1, the Frame fields (little-endian,
+// times as IEEE 754 doubles), the payload's length and bytes, and a CRC-32 of everything
+// before it: kUdpDatagramOverheadBytes + payload bytes.
+inline constexpr std::size_t kUdpDatagramOverheadBytes = 36;
+std::vector<std::uint8_t> EncodeUdpDatagram(const Frame& frame);
+// The frame in a datagram, or nothing when it is not one (short, wrong magic or version,
+// length that does not match, CRC mismatch, kind 0, payload above kMaxPayloadBytes, a time
+// that is not finite). Never throws, never reads outside [data, data + size).
+std::optional<Frame> DecodeUdpDatagram(const std::uint8_t* data, std::size_t size);
 
 }  // namespace draco::middleware
