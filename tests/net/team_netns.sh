@@ -36,8 +36,8 @@
 # Each reports, per ordered pair, where each robot placed each teammate (right / wrong / none,
 # judged against ground truth as draco-fleet's placements_verdict.csv) and when first right:
 #   9   unicast, reliable DDS, every robot's link at 62.5 kbit/s (tbf 62500 x P bit/s) with
-#       10 % random loss
-#   10  the same with 25 % loss
+#       10 % random loss, 0.5 s latency (link.latency_s: draco's channel, mission time)
+#   10  the same with 25 % loss and 2 s latency
 #   11  as case 5 paced: acoustic profile, best-effort DDS, every link at 5 kbit/s (tbf 5000 x P
 #       bit/s, link.team_rate_bps=5000) with 20 % loss
 #   12  unicast, charlie's link cut (bridge port down) from mission time 900 s to 1020 s
@@ -47,9 +47,10 @@
 #       "AT BACK" in mission seconds) and started again 60 s of mission later; the new bravo
 #       replays its recording from the start as fast as it can (--rate 0: a rebooted vehicle
 #       processing its log to catch up) until the lock-step holds it with the team
-#   14  the whole team at 1 kbit/s with 20 % loss over plain UDP to static peers (draco-robot
-#       --transport udp: no DDS discovery), each daemon on its own clock (--no-lockstep, as
-#       vehicles at sea), every link tbf 1000 x P bit/s, link.team_rate_bps=1000
+#   14  the whole team at 1 kbit/s over plain UDP to static peers (draco-robot --transport udp:
+#       no DDS discovery), each daemon on its own clock (--no-lockstep, as vehicles at sea),
+#       every link tbf 1000 x P bit/s, link.team_rate_bps=1000, 20 % of the datagrams dropped
+#       coming in (each receiver loses 20 %; the other cases drop both ways: 36 % end to end)
 #   15  as 14 at 5 kbit/s
 #
 #   sudo tests/net/team_netns.sh build/apps/sim/draco-sim build/apps/fleet/draco-fleet \
@@ -355,8 +356,11 @@ fi
 # kbit/s; at slower rates 8 s of traffic and at least 8000 bytes (DDS discovery comes in
 # bursts: a 3000-byte queue at 5 kbit/s dropped 3 of 4 datagrams going out and the team never
 # discovered itself within the 30 s startup timeout).
+# With a fourth argument "in", datagrams are dropped coming in only: a frame between two robots
+# crosses two robots' links, so dropping both ways loses 1 - (1 - p)^2 of them (36 % at 20 %),
+# dropping coming in loses p, each receiver on its own.
 shape() {
-  local r=$1 ns="$pfx-$1" rate_bit=${2:-62500} permille=${3:-100} queue
+  local r=$1 ns="$pfx-$1" rate_bit=${2:-62500} permille=${3:-100} ends=${4:-both} queue out_permille
   if [ "$rate_bit" -ge 62500 ]; then
     queue="latency 400ms"
   else
@@ -365,6 +369,8 @@ shape() {
   # shellcheck disable=SC2086
   tc -n "$sw" qdisc add dev "p-$r" root tbf rate "${rate_bit}bit" burst 4kb $queue &&
     tc -n "$ns" qdisc add dev eth0 root tbf rate "${rate_bit}bit" burst 4kb $queue || return 1
+  out_permille=$permille
+  [ "$ends" = in ] && out_permille=0
   if [ "$loss_tool" = nft ]; then
     ip netns exec "$ns" nft -f - <<EOF || return 1
 table inet draco_loss {
@@ -374,7 +380,7 @@ table inet draco_loss {
   }
   chain out {
     type filter hook output priority 0; policy accept;
-    oifname "eth0" meta l4proto udp numgen random mod 1000 < $permille counter drop
+    oifname "eth0" meta l4proto udp numgen random mod 1000 < $out_permille counter drop
   }
 }
 EOF
@@ -383,8 +389,8 @@ EOF
     p=$(awk -v m="$permille" 'BEGIN { printf "%.3f", m / 1000 }')
     ip netns exec "$ns" iptables -A INPUT -i eth0 -p udp -m statistic --mode random \
       --probability "$p" -j DROP &&
-      ip netns exec "$ns" iptables -A OUTPUT -o eth0 -p udp -m statistic --mode random \
-        --probability "$p" -j DROP || return 1
+      { [ "$ends" = in ] || ip netns exec "$ns" iptables -A OUTPUT -o eth0 -p udp -m statistic \
+        --mode random --probability "$p" -j DROP; } || return 1
   fi
 }
 unshape() {
@@ -587,9 +593,9 @@ for c in 9 10 11; do
   [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
   case $c in
     9) bps=62500 permille=100 profile=unicast
-       extra=(--set link.lockstep_timeout_s=30) ;;
+       extra=(--set link.lockstep_timeout_s=30 --set link.latency_s=0.5) ;;
     10) bps=62500 permille=250 profile=unicast
-       extra=(--set link.lockstep_timeout_s=30) ;;
+       extra=(--set link.lockstep_timeout_s=30 --set link.latency_s=2.0) ;;
     11) bps=5000 permille=200 profile=$slow_profile
        extra=(--set link.lockstep_timeout_s=30 --set link.startup_timeout_s=240
          --set "link.team_rate_bps=$bps" --set link.dds_reliability="$slow_reliability") ;;
@@ -682,7 +688,7 @@ for c in 14 15; do
   title="$c UDP $((bps / 1000))k+20% ${pace}x"
   shaped=()
   for r in "${robots[@]}"; do
-    if ! err=$(shape "$r" "$(wall_rate "$bps")" 200 2>&1); then
+    if ! err=$(shape "$r" "$(wall_rate "$bps")" 200 in 2>&1); then
       fail "case $c: cannot shape $r's link: $err"
       break
     fi
@@ -691,7 +697,7 @@ for c in 14 15; do
   if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
     run_team "c$c" "$title" unicast "$pace" "$mission_timeout" -- --transport udp \
       --udp-peers "$peers" --no-lockstep --set "link.team_rate_bps=$bps"
-    note="plain UDP, no lock-step; every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
+    note="plain UDP, no lock-step; every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x), 20 % dropped coming in"
     for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "20 %")"; done
     check_case "c$c" "$title" heard no-compare
     placements_of "$work/c$c" "$work/c$c" "$title"

@@ -21,6 +21,11 @@ using msgs::FleetKind;
 constexpr std::uint8_t kClockKind = 15;  // lock-step clock frames (replay only): not link traffic
 constexpr std::size_t kClockBytes = 4 + 8 + 1 + 8;
 
+// The channel sends the lowest value first, FIFO within a value. Heartbeats (liveness and the
+// map acknowledgements that stop resends) and loops and requests (small) first; scan replies,
+// object maps and keyframe poses share one level, in the order they were queued: replies below
+// maps starve on a slow link (at 1 kbit/s for the team 309 of 411 replies expired in the queue
+// on the marina, docs/fleet.md "What a slow link spends its bits on").
 int Priority(FleetKind kind) {
   switch (kind) {
     case FleetKind::kHeartbeat:
@@ -28,13 +33,12 @@ int Priority(FleetKind kind) {
     case FleetKind::kLoopClosures:
     case FleetKind::kScanRequest:
       return 1;
+    case FleetKind::kScanReply:
     case FleetKind::kObjectMap:
     case FleetKind::kKeyframePoses:
       return 2;
-    case FleetKind::kScanReply:
-      return 3;
   }
-  return 3;
+  return 2;
 }
 
 void PutU64(std::vector<std::uint8_t>* out, std::uint64_t v, int bytes) {

@@ -97,6 +97,10 @@ class LinkComponent final : public graph::Component {
                {.doc = "delay after a frame's last bit", .unit = "s", .min = 0.0});
     spec.Param("loss_probability", &o_.channel.loss_probability,
                {.doc = "probability a frame is lost", .min = 0.0, .max = 1.0});
+    spec.Param("loss_seed", &loss_seed_,
+               {.doc = "which frames loss_probability loses (a hash of seed, source and seq): "
+                       "another seed, another draw of the same loss",
+                .min = 0});
     spec.Param("tdma", &o_.channel.tdma, {.doc = "half-duplex turn-taking (round-robin slots)"});
     spec.Param("slot_s", &o_.channel.slot_s, {.doc = "turn-taking slot", .unit = "s", .min = 0.01});
     spec.Param("max_wait_s", &o_.channel.max_wait_s,
@@ -116,6 +120,7 @@ class LinkComponent final : public graph::Component {
 
   Status Start(Context&) override {
     o_.team = team_;
+    o_.channel.loss_seed = static_cast<std::uint64_t>(loss_seed_);
     o_.channel.team_size = static_cast<int>(team_.size());
     if (o_.channel.team_size < 1) return Status::Fatal("team: at least one robot id");
     bool own = false;
@@ -212,6 +217,7 @@ class LinkComponent final : public graph::Component {
   std::vector<int> team_{0, 1, 2};
   std::string transport_ = "inproc";
   middleware::UdpOptions udp_;
+  int loss_seed_ = 1;
   std::string bus_ = "team";
   int domain_id_ = 0;
   std::string dds_config_;
