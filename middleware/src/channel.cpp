@@ -90,6 +90,21 @@ bool AcousticChannel::Enqueue(Frame frame, double now_s) {
   return true;
 }
 
+std::size_t AcousticChannel::DropWaiting(std::uint8_t kind, std::uint16_t destination) {
+  std::size_t n = 0;
+  for (auto it = queue_.begin(); it != queue_.end();) {
+    if (!InFlight(*it) && it->kind == kind && it->destination == destination) {
+      queued_bits_ -= LinkBits(*it);
+      it = queue_.erase(it);
+      ++n;
+    } else {
+      ++it;
+    }
+  }
+  stats_.by_kind[KindIndex(kind)].superseded += n;
+  return n;
+}
+
 std::vector<Frame> AcousticChannel::Transmit(double now_s) {
   std::vector<Frame> out;
   const double own_rate =

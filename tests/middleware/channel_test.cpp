@@ -55,6 +55,30 @@ TEST(AcousticChannel, SharedRateGivesHandComputedArrivalTimes) {
   EXPECT_EQ(stats.traffic[2].bits, 16064u);
 }
 
+TEST(AcousticChannel, DropWaitingTakesOnlyWaitingFramesOfThatKindAndDestination) {
+  // 1000 bit/s: a 117-byte frame takes 1 s. Three broadcast maps (kind 2), one map for robot
+  // 4, one reply (kind 5); the first map is on the air when the newer map comes.
+  AcousticChannel channel(
+      0, ChannelOptions{.team_rate_bps = 1000.0, .team_size = 1, .latency_s = 0.0});
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(channel.Enqueue(MakeFrame(2, 117, 2), 0.0));
+  Frame directed = MakeFrame(2, 117, 2);
+  directed.destination = 4;
+  ASSERT_TRUE(channel.Enqueue(directed, 0.0));
+  ASSERT_TRUE(channel.Enqueue(MakeFrame(5, 117, 2), 0.0));
+  EXPECT_TRUE(channel.Transmit(0.5).empty());  // the first map is being sent
+  EXPECT_EQ(channel.DropWaiting(2, kBroadcast), 2u);
+  EXPECT_EQ(channel.queued_frames(), 3u);  // the one on the air, the directed map, the reply
+  EXPECT_EQ(channel.queued_bits(), 3000u);
+  EXPECT_EQ(channel.stats().by_kind[2].superseded, 2u);
+  const auto out = channel.Transmit(10.0);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].kind, 2);
+  EXPECT_EQ(out[0].seq, 0u);  // the map on the air went out whole
+  EXPECT_EQ(out[1].destination, 4);
+  EXPECT_EQ(out[2].kind, 5);
+  EXPECT_EQ(channel.stats().by_kind[2].frames_sent, 2u);
+}
+
 TEST(AcousticChannel, IdleTransmitterStartsAtEnqueueTime) {
   AcousticChannel channel(
       0, ChannelOptions{.team_rate_bps = 1000.0, .team_size = 1, .latency_s = 0.5});

@@ -202,6 +202,13 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s)
     }
     msgs::ObjectMapUpdate update;
     if (object_encoder_.MakeUpdate(out.object_map, base, &update)) {
+      // An update still waiting in the queue is older and against the same or an older
+      // acknowledged version: this one carries all it carries (a slow link sends the newest
+      // map, not every map).
+      if (options_.supersede_maps) {
+        channel_.DropWaiting(static_cast<std::uint8_t>(FleetKind::kObjectMap),
+                             middleware::kBroadcast);
+      }
       update.header = Header(FleetKind::kObjectMap, now_s);
       queue(FleetKind::kObjectMap, -1, update);
       for (auto& [id, t] : teammates_) t.last_map_sent_s = now_s;
@@ -578,6 +585,7 @@ std::string LinkEndpoint::StatsJson() const {
         {"max_bits", ks.max_bits},
         {"dropped_queue", ks.dropped_queue},
         {"dropped_expired", ks.dropped_expired},
+        {"superseded", ks.superseded},
         {"lost", ks.lost},
         {"frames_received", ks.frames_received},
         {"bits_received", ks.bits_received},

@@ -103,6 +103,8 @@ class LinkComponent final : public graph::Component {
                 .min = 0});
     spec.Param("tdma", &o_.channel.tdma, {.doc = "half-duplex turn-taking (round-robin slots)"});
     spec.Param("slot_s", &o_.channel.slot_s, {.doc = "turn-taking slot", .unit = "s", .min = 0.01});
+    spec.Param("supersede_maps", &o_.supersede_maps,
+               {.doc = "a new object-map update replaces an older one still waiting to be sent"});
     spec.Param("max_wait_s", &o_.channel.max_wait_s,
                {.doc = "a frame queued longer is dropped", .unit = "s", .min = 0.0});
     spec.Param("heartbeat_period_s", &o_.heartbeat_period_s,

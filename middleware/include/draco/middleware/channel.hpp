@@ -45,6 +45,7 @@ struct KindStats {
   std::uint64_t max_bits = 0;
   std::uint64_t dropped_queue = 0;    // did not fit in the queue / too large
   std::uint64_t dropped_expired = 0;  // waited longer than max_wait_s
+  std::uint64_t superseded = 0;       // taken from the queue for a newer frame (DropWaiting)
   std::uint64_t lost = 0;             // transmitted, lost in the water
   std::uint64_t frames_received = 0;  // receiver side
   std::uint64_t bits_received = 0;
@@ -74,6 +75,11 @@ class AcousticChannel {
   // Queues a frame (source and seq are set here; enqueued_s = now_s). Returns false when it
   // was dropped (too large or the queue is full); counted either way.
   bool Enqueue(Frame frame, double now_s);
+  // Takes the frames of this kind for this destination that are still waiting (not being
+  // transmitted) out of the queue, because a newer frame about to be queued carries what they
+  // carry (an object-map update against the version the teammates acknowledged supersedes an
+  // older one). Counted as superseded; returns how many.
+  std::size_t DropWaiting(std::uint8_t kind, std::uint16_t destination);
   // Advances the transmitter to now_s: frames whose last bit left by now_s, with delivered_s
   // set, lost ones excluded (counted). Frames that expired in the queue are dropped.
   std::vector<Frame> Transmit(double now_s);

@@ -53,6 +53,9 @@ struct LinkOptions {
   double startup_timeout_s = 30.0;   // wall seconds to discover every teammate (first tick)
   double max_lag_s = 2.0;      // a teammate further behind (restarted, stalled) is not waited for
   double resend_map_s = 10.0;  // own map sent again this often to a teammate that holds none
+  // A new object-map update takes an older one still waiting in the channel's queue out of it
+  // (it carries all the older one carries); false: every update is sent.
+  bool supersede_maps = true;
   std::size_t max_held_frames = 4096;  // receiver inbox bound, shared equally by the teammates
 };
 
