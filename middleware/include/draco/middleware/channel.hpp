@@ -33,7 +33,10 @@ struct ChannelOptions {
   double latency_s = 0.1;  // after the last bit (propagation ~0.07 s per 100 m + modem)
   double loss_probability = 0.0;
   std::uint64_t loss_seed = 1;
-  double max_wait_s = 60.0;              // queued longer than this: dropped (expired)
+  // Queued longer than this: dropped (expired). A scan reply that waited minutes still makes
+  // loops (its keyframes do not go stale); on a 1 kbit/s team link 60 s expired a third of
+  // them (docs/fleet.md, "What a slow link spends its bits on").
+  double max_wait_s = 180.0;
   std::size_t max_queue_bits = 1 << 20;  // queue capacity; a frame that does not fit is dropped
 };
 
