@@ -32,18 +32,37 @@ Frame MakeFrame(std::uint16_t destination, std::uint8_t kind, std::uint32_t seq,
   return f;
 }
 
+// A socket that counts the datagrams reaching it (a peer address nobody runs a robot on).
+class Spy {
+ public:
+  Spy() : fd_(socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0)) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    socklen_t len = sizeof a;
+    getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len);
+    port_ = ntohs(a.sin_port);
+  }
+  ~Spy() { close(fd_); }
+  Spy(const Spy&) = delete;
+  Spy& operator=(const Spy&) = delete;
+  int port() const { return port_; }
+  int Count() {  // datagrams since the last call (waits 100 ms for stragglers)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::uint8_t buf[65536];
+    int n = 0;
+    while (recv(fd_, buf, sizeof buf, 0) >= 0) ++n;
+    return n;
+  }
+
+ private:
+  int fd_;
+  int port_ = 0;
+};
+
 // A UDP port free on 127.0.0.1 now (the kernel's pick for a socket bound to port 0).
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  socklen_t len = sizeof a;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  close(fd);
-  return ntohs(a.sin_port);
-}
+int FreePort() { return Spy().port(); }
 
 UdpOptions Options(std::uint16_t id, int port, const std::vector<int>& peer_ports) {
   UdpOptions o;
@@ -153,33 +172,6 @@ TEST(UdpTransport, BroadcastReachesEveryPeerAndDirectedFramesOnlyTheirRobot) {
   EXPECT_EQ(b->counters().frames_received, 1u);
   EXPECT_EQ(c->counters().frames_received, 2u);
 }
-
-// A socket that counts the datagrams reaching it (a peer address nobody runs a robot on).
-class Spy {
- public:
-  Spy() : fd_(socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0)) {
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    EXPECT_EQ(bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-    socklen_t len = sizeof a;
-    getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
-  }
-  ~Spy() { close(fd_); }
-  int port() const { return port_; }
-  int Count() {  // datagrams since the last call (waits 100 ms for stragglers)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    std::uint8_t buf[65536];
-    int n = 0;
-    while (recv(fd_, buf, sizeof buf, 0) >= 0) ++n;
-    return n;
-  }
-
- private:
-  int fd_;
-  int port_ = 0;
-};
 
 TEST(UdpTransport, ADirectedFrameGoesWhereItsRobotWasHeardFromOnceItWas) {
   Spy spy;
