@@ -584,13 +584,15 @@ mission_meta() {
     echo "held=$(python3 "$check" held "$work/$1" "${robots[@]}")"
   } >>"$work/$1/meta.txt"
 }
-for c in 9 10 11; do
+# 14, 15: plain UDP, each daemon on its own clock, 20 % dropped coming in (per receiver).
+for c in 9 10 11 14 15; do
   case_on $c || continue
   if ! command -v tc >/dev/null || [ -z "$loss_tool" ]; then
     echo "SKIP case $c: needs tc and nft or iptables"
     continue
   fi
   [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
+  ends=both compare=compare kind=team how=""
   case $c in
     9) bps=62500 permille=100 profile=unicast
        extra=(--set link.lockstep_timeout_s=30 --set link.latency_s=0.5) ;;
@@ -599,11 +601,14 @@ for c in 9 10 11; do
     11) bps=5000 permille=200 profile=$slow_profile
        extra=(--set link.lockstep_timeout_s=30 --set link.startup_timeout_s=240
          --set "link.team_rate_bps=$bps" --set link.dds_reliability="$slow_reliability") ;;
+    14|15) bps=$((c == 14 ? 1000 : 5000)) permille=200 profile=unicast ends=in compare=no-compare
+       kind=UDP how="plain UDP, no lock-step, 20 % dropped coming in; "
+       extra=(--transport udp --udp-peers "$peers" --no-lockstep --set "link.team_rate_bps=$bps") ;;
   esac
-  title="$c team $(awk -v b="$bps" 'BEGIN { print b / 1000 }')k+$((permille / 10))% ${pace}x"
+  title="$c $kind $(awk -v b="$bps" 'BEGIN { print b / 1000 }')k+$((permille / 10))% ${pace}x"
   shaped=()
   for r in "${robots[@]}"; do
-    if ! err=$(shape "$r" "$(wall_rate "$bps")" "$permille" 2>&1); then
+    if ! err=$(shape "$r" "$(wall_rate "$bps")" "$permille" "$ends" 2>&1); then
       fail "case $c: cannot shape $r's link: $err"
       break
     fi
@@ -611,9 +616,9 @@ for c in 9 10 11; do
   done
   if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
     run_team "c$c" "$title" "$profile" "$pace" "$mission_timeout" -- "${extra[@]}"
-    note="every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
+    note="${how}every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x)"
     for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "$((permille / 10)) %")"; done
-    check_case "c$c" "$title" heard compare
+    check_case "c$c" "$title" heard "$compare"
     placements_of "$work/c$c" "$work/c$c" "$title"
     mission_meta "c$c"
     echo "note=$note" >>"$work/c$c/meta.txt"
@@ -676,37 +681,6 @@ PY
   ran+=(c13)
 fi
 
-# --- 14, 15: the team over plain UDP at 1 and 5 kbit/s, 20 % loss, each on its own clock ------
-for c in 14 15; do
-  case_on $c || continue
-  if ! command -v tc >/dev/null || [ -z "$loss_tool" ]; then
-    echo "SKIP case $c: needs tc and nft or iptables"
-    continue
-  fi
-  [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
-  if [ $c = 14 ]; then bps=1000; else bps=5000; fi
-  title="$c UDP $((bps / 1000))k+20% ${pace}x"
-  shaped=()
-  for r in "${robots[@]}"; do
-    if ! err=$(shape "$r" "$(wall_rate "$bps")" 200 in 2>&1); then
-      fail "case $c: cannot shape $r's link: $err"
-      break
-    fi
-    shaped+=("$r")
-  done
-  if [ ${#shaped[@]} -eq ${#robots[@]} ]; then
-    run_team "c$c" "$title" unicast "$pace" "$mission_timeout" -- --transport udp \
-      --udp-peers "$peers" --no-lockstep --set "link.team_rate_bps=$bps"
-    note="plain UDP, no lock-step; every link tbf $(wall_rate "$bps") bit/s (${bps} bit/s of mission time at ${pace}x), 20 % dropped coming in"
-    for r in "${robots[@]}"; do note="$note; $(shaping_note "$r" "20 %")"; done
-    check_case "c$c" "$title" heard no-compare
-    placements_of "$work/c$c" "$work/c$c" "$title"
-    mission_meta "c$c"
-    echo "note=$note" >>"$work/c$c/meta.txt"
-    ran+=("c$c")
-  fi
-  for r in "${shaped[@]}"; do unshape "$r"; done
-done
 mission_ran=()
 for c in "${ran[@]}"; do [ -f "$work/$c/placements.csv" ] && mission_ran+=("$c"); done
 reported=0
