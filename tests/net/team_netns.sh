@@ -323,6 +323,13 @@ check_case() {
   fi
 }
 
+# lockstep_timeouts CASE: the lock-step timeouts of every robot of a case, summed.
+lockstep_timeouts() {
+  python3 -c "import json,sys; print(sum(json.load(open('%s/%s.link_stats.json' % (sys.argv[1], r)))['counters']['lockstep_timeouts'] for r in sys.argv[2:]))" "$work/$1" "${robots[@]}"
+}
+# at_pace MISSION_S: the wall seconds after the start at which the paced replay reaches it.
+at_pace() { awk -v m="$1" -v p="$pace" 'BEGIN { printf "%.2f", m / p }'; }
+
 ran=()
 case_on() { [[ " $cases " == *" $1 "* ]]; }
 
@@ -469,7 +476,7 @@ if case_on 4; then
   python3 "$check" heard-after "$work/c4" "$cut_robot" "$bound" "${robots[@]}" ||
     fail "4: $cut_robot not heard again after the cut"
   # The cut was felt: the lock-step waited for the cut robot and gave up.
-  lsto=$(python3 -c "import json,sys; print(sum(json.load(open('$work/c4/%s.link_stats.json' % r))['counters']['lockstep_timeouts'] for r in sys.argv[1:]))" "${robots[@]}")
+  lsto=$(lockstep_timeouts c4)
   [ "$lsto" -ge 1 ] || fail "4: no lock-step timeout: was the link cut at all?"
   echo "note=$cut_robot's bridge port down from $cut_at to $back_at s (mission ~$(awk -v r=$rate -v a=$cut_at 'BEGIN{print r*a}')-$(awk -v r=$rate -v b=$back_at 'BEGIN{print r*b}') s at ${rate}x); frames sent after mission time $bound s reached both sides; $lsto lock-step timeouts" >>"$work/c4/meta.txt"
   ran+=(c4)
@@ -630,8 +637,8 @@ done
 # --- 12: charlie's link cut for a stretch of the mission, then back -------------------------
 if case_on 12; then
   [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
-  cut_at=$(awk -v m="$cut_from_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
-  back_at=$(awk -v m="$cut_to_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  cut_at=$(at_pace "$cut_from_s")
+  back_at=$(at_pace "$cut_to_s")
   title="12 cut ${cut_from_s}-${cut_to_s} s ${pace}x"
   run_team c12 "$title" unicast "$pace" "$mission_timeout" \
     "$cut_at" "ip -n $sw link set p-$cut_robot down" \
@@ -647,7 +654,7 @@ if case_on 12; then
   bound=$(awk -v r="$pace" -v b="$back_at" 'BEGIN { printf "%.1f", r * b + 0.5 }')
   python3 "$check" heard-after "$work/c12" "$cut_robot" "$bound" "${robots[@]}" ||
     fail "12: $cut_robot not heard again after the cut"
-  lsto=$(python3 -c "import json,sys; print(sum(json.load(open('$work/c12/%s.link_stats.json' % r))['counters']['lockstep_timeouts'] for r in sys.argv[1:]))" "${robots[@]}")
+  lsto=$(lockstep_timeouts c12)
   echo "note=$cut_robot's bridge port down from $cut_at to $back_at s wall (mission <= ${cut_from_s}-${cut_to_s} s at ${pace}x); frames sent after mission time $bound s reached both sides; $lsto lock-step timeouts" >>"$work/c12/meta.txt"
   ran+=(c12)
 fi
@@ -655,10 +662,10 @@ fi
 # --- 13: as 12, and bravo killed while charlie is cut off, restarted 60 s later --------------
 if case_on 13; then
   [ -f "$work/ref/placements.csv" ] || placements_of "$ref" "$work/ref" "in-process"
-  cut_at=$(awk -v m="$cut_from_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
-  back_at=$(awk -v m="$cut_to_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
-  kill_at=$(awk -v m="$kill_at_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
-  again_at=$(awk -v m="$back_at_s" -v p="$pace" 'BEGIN { printf "%.2f", m / p }')
+  cut_at=$(at_pace "$cut_from_s")
+  back_at=$(at_pace "$cut_to_s")
+  kill_at=$(at_pace "$kill_at_s")
+  again_at=$(at_pace "$back_at_s")
   title="13 cut ${cut_from_s}-${cut_to_s} s, bravo killed ${kill_at_s}-${back_at_s} s ${pace}x"
   run_team c13 "$title" unicast "$pace" "$mission_timeout" \
     "$cut_at" "ip -n $sw link set p-$cut_robot down" \
@@ -676,7 +683,7 @@ for r in ("alpha", "charlie"):
     b = [t for t in s["teammates"] if t["robot_id"] == 1][0]
     assert b["restarts"] >= 1 and b["frames_since_restart"] > 0, (r, b)
 PY
-  lsto=$(python3 -c "import json,sys; print(sum(json.load(open('$work/c13/%s.link_stats.json' % r))['counters']['lockstep_timeouts'] for r in sys.argv[1:]))" "${robots[@]}")
+  lsto=$(lockstep_timeouts c13)
   echo "note=$cut_robot's bridge port down from $cut_at to $back_at s wall (mission <= ${cut_from_s}-${cut_to_s} s at ${pace}x); bravo SIGKILLed at $kill_at s and started again at $again_at s wall (mission ~${kill_at_s} and ~${back_at_s} s), replaying from the start at --rate 0 until in step; $lsto lock-step timeouts" >>"$work/c13/meta.txt"
   ran+=(c13)
 fi
