@@ -331,6 +331,61 @@ TEST(LinkEndpoint, ClockRepeatsKeepToAQuarterOfTheTeamRate) {
   EXPECT_NEAR(ClockRepeatCapS(o, frame_bytes), 20.0 * 129.0 * 8.0 / 1250.0, 1e-9);
 }
 
+TEST(LinkEndpoint, HeartbeatPeriodGrowsOnASlowLink) {
+  LinkOptions o = Options(0, 1);  // three robots, 2 s period
+  o.heartbeat_max_share = 0.05;
+  o.channel.team_rate_bps = 1000.0;  // 3 x 280 bits per period within 50 bit/s: 16.8 s
+  EXPECT_NEAR(HeartbeatPeriodS(o, 280), 3.0 * 280.0 / 50.0, 1e-9);
+  o.channel.team_rate_bps = 62500.0;  // the paper's modem: the configured period
+  EXPECT_DOUBLE_EQ(HeartbeatPeriodS(o, 280), 2.0);
+  o.heartbeat_max_share = 0.0;  // off
+  o.channel.team_rate_bps = 1000.0;
+  EXPECT_DOUBLE_EQ(HeartbeatPeriodS(o, 280), 2.0);
+}
+
+TEST(LinkEndpoint, HeartbeatsKeepToTheirShareOfASlowLinkWithoutFalseSilence) {
+  const double duration_s = 600.0;
+  for (const double share : {0.05, 0.0}) {
+    const std::string bus = Bus();
+    std::vector<std::unique_ptr<LinkEndpoint>> links;
+    for (int i = 0; i < 3; ++i) {
+      LinkOptions o = Options(i, 100 + i);
+      o.channel.team_rate_bps = 1000.0;
+      o.heartbeat_max_share = share;
+      links.push_back(
+          std::make_unique<LinkEndpoint>(o, middleware::MakeInProcessTransport(bus, i)));
+    }
+    int silent = 0;
+    for (double t = 0.0; t < duration_s; t += 0.5) {
+      for (auto& link : links) {
+        for (const auto& e : link->Tick(t, nullptr).events) {
+          silent += e.kind == msgs::TeammateEventKind::kSilent;
+        }
+      }
+    }
+    EXPECT_EQ(silent, 0) << "share " << share;  // only heartbeats on the link, none lost
+    double team_bits = 0.0;
+    for (const auto& link : links) {
+      team_bits += static_cast<double>(
+          link->stats().by_kind[static_cast<int>(msgs::FleetKind::kHeartbeat)].bits_sent);
+    }
+    const double used = team_bits / (1000.0 * duration_s);
+    if (share > 0.0) {
+      // A window of duration_s holds at most duration_s / period + 1 heartbeats per robot.
+      const double period_s = links[0]->heartbeat_period_s();
+      EXPECT_LE(used, share * (duration_s + period_s) / duration_s);
+      EXPECT_GT(used, 0.8 * share);
+      EXPECT_GT(links[0]->heartbeat_period_s(), 5.0);
+      EXPECT_DOUBLE_EQ(links[0]->silence_s(), kSilencePeriods * links[0]->heartbeat_period_s());
+      EXPECT_DOUBLE_EQ(links[0]->resend_map_s(), kResendPeriods * links[0]->heartbeat_period_s());
+    } else {
+      EXPECT_DOUBLE_EQ(links[0]->heartbeat_period_s(), 2.0);
+      EXPECT_DOUBLE_EQ(links[0]->silence_s(), 30.0);
+      EXPECT_GT(used, 4.0 * 0.05);  // every 2 s: more than four times the share
+    }
+  }
+}
+
 TEST(LinkEndpoint, AFloodingTeammateCannotCrowdOutTheOthers) {
   const std::string bus = Bus();
   LinkOptions o = Options(0, 1);

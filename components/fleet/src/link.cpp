@@ -72,6 +72,7 @@ LinkEndpoint::LinkEndpoint(const LinkOptions& options,
   if (!transport_) throw std::invalid_argument("LinkEndpoint: no transport");
   if (options_.tick_s <= 0.0) throw std::invalid_argument("LinkEndpoint: tick_s must be > 0");
   if (options_.incarnation == 0) options_.incarnation = DrawIncarnation();
+  heartbeat_period_s_ = options_.heartbeat_period_s;
   if (options_.robot_id < 0 || options_.robot_id > 63) {
     throw std::invalid_argument("LinkEndpoint: robot id " + std::to_string(options_.robot_id) +
                                 " outside 0..63");
@@ -160,7 +161,7 @@ void LinkEndpoint::QueueOutgoing(const msgs::FleetOutgoing& given, double now_s)
     // holds when that is still known).
     for (const auto& [id, t] : teammates_) {
       if (t.known && !t.left && !t.silent && t.acked_own_version != object_encoder_.version() &&
-          now_s - t.last_map_sent_s >= options_.resend_map_s) {
+          now_s - t.last_map_sent_s >= resend_map_s()) {
         out.has_object_map = true;
         out.object_map = last_map_;
       }
@@ -356,6 +357,25 @@ double ClockRepeatCapS(const LinkOptions& options, std::size_t clock_frame_bytes
   return std::max(1.0, bits_per_round / (0.25 * rate_bps));
 }
 
+double HeartbeatPeriodS(const LinkOptions& options, std::size_t heartbeat_bits) {
+  const double robots = static_cast<double>(std::max<std::size_t>(options.team.size(), 2));
+  const double rate_bps = options.channel.team_rate_bps;
+  const double share = options.heartbeat_max_share;
+  if (!(rate_bps > 0.0) || !std::isfinite(rate_bps) || !(share > 0.0)) {
+    return options.heartbeat_period_s;
+  }
+  return std::max(options.heartbeat_period_s,
+                  robots * static_cast<double>(heartbeat_bits) / (share * rate_bps));
+}
+
+double LinkEndpoint::silence_s() const {
+  return std::max(options_.silence_s, kSilencePeriods * heartbeat_period_s_);
+}
+
+double LinkEndpoint::resend_map_s() const {
+  return std::max(options_.resend_map_s, kResendPeriods * heartbeat_period_s_);
+}
+
 void LinkEndpoint::WaitForTeammates(double now_s, const std::function<bool()>& cancelled) {
   const auto start = std::chrono::steady_clock::now();
   auto last_clock = start;
@@ -516,7 +536,7 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
   static const msgs::FleetOutgoing kNothing;
   QueueOutgoing(outgoing != nullptr ? *outgoing : kNothing, now_s);
   if (now_s >= next_heartbeat_s_) {
-    next_heartbeat_s_ = now_s + options_.heartbeat_period_s;
+    next_heartbeat_s_ = now_s + heartbeat_period_s_;
     msgs::Heartbeat hb;
     hb.header = Header(FleetKind::kHeartbeat, now_s);
     hb.num_keyframes = own_keyframes_;
@@ -525,7 +545,11 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
     }
     hb.transforms = transforms_;
     try {
-      Queue(FleetKind::kHeartbeat, -1, Encode(hb, options_.codec), now_s);
+      std::vector<std::uint8_t> payload = Encode(hb, options_.codec);
+      heartbeat_period_s_ =
+          HeartbeatPeriodS(options_, middleware::kFrameHeaderBits + 8 * payload.size());
+      next_heartbeat_s_ = now_s + heartbeat_period_s_;
+      Queue(FleetKind::kHeartbeat, -1, std::move(payload), now_s);
     } catch (const std::exception& e) {
       ++counters_.encode_errors;
       counters_.last_encode_error = std::string("heartbeat: ") + e.what();
@@ -553,7 +577,7 @@ msgs::FleetIncoming LinkEndpoint::Tick(double now_s, const msgs::FleetOutgoing* 
   }
   for (auto& [id, t] : teammates_) {
     if (t.known && !t.silent && !t.left && t.last_heard_s >= 0.0 &&
-        now_s - t.last_heard_s > options_.silence_s) {
+        now_s - t.last_heard_s > silence_s()) {
       t.silent = true;
       pending_events_.push_back({id, t.incarnation, msgs::TeammateEventKind::kSilent});
       log::Warn(Who() + "teammate " + std::to_string(id) + " silent for " +
@@ -609,6 +633,7 @@ std::string LinkEndpoint::StatsJson() const {
                     {"incarnation", options_.incarnation},
                     {"transport", transport_->Describe()},
                     {"team_rate_bps", options_.channel.team_rate_bps},
+                    {"heartbeat_period_s", heartbeat_period_s_},
                     {"busy_s", s.busy_s},
                     {"kinds", kinds},
                     {"counters",

@@ -109,6 +109,11 @@ class LinkComponent final : public graph::Component {
                {.doc = "a frame queued longer is dropped", .unit = "s", .min = 0.0});
     spec.Param("heartbeat_period_s", &o_.heartbeat_period_s,
                {.doc = "heartbeat period", .unit = "s", .min = 0.5});
+    spec.Param("heartbeat_max_share", &o_.heartbeat_max_share,
+               {.doc = "the team's heartbeats take at most this share of team_rate_bps (the "
+                       "period, silence_s and resend times grow on a slow link); 0: fixed period",
+                .min = 0.0,
+                .max = 1.0});
     spec.Param("silence_s", &o_.silence_s,
                {.doc = "a teammate unheard for this long is silent", .unit = "s", .min = 1.0});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});

@@ -46,7 +46,11 @@ struct LinkOptions {
   ObjectDeltaOptions object_delta;
   PoseDeltaOptions pose_delta;
   double tick_s = 0.5;
-  double heartbeat_period_s = 5.0;
+  double heartbeat_period_s = 5.0;  // the shortest period (see heartbeat_max_share)
+  // The team's heartbeats take at most this share of channel.team_rate_bps: on a slow link the
+  // period grows (1 kbit/s, three robots: about 17 s), and silence_s and resend_map_s grow
+  // with it (HeartbeatPeriodS). 0: heartbeats every heartbeat_period_s whatever the rate.
+  double heartbeat_max_share = 0.05;
   double silence_s = 30.0;  // mission time without a frame: the teammate is silent
   bool lockstep = false;
   double lockstep_timeout_s = 10.0;  // wall seconds
@@ -66,6 +70,15 @@ struct LinkOptions {
 // at 5 kbit/s, 25 s at 1 kbit/s.
 inline constexpr std::size_t kClockDatagramOverheadBytes = 100;
 double ClockRepeatCapS(const LinkOptions& options, std::size_t clock_frame_bytes);
+
+// The heartbeat period for a heartbeat frame of heartbeat_bits (header included): every robot
+// of the team sending one per period takes at most heartbeat_max_share of the team's rate;
+// never under heartbeat_period_s. A teammate is silent after max(silence_s, 6 periods), and
+// the own map is sent again after max(resend_map_s, 2 periods): an acknowledgement rides on
+// the teammate's next heartbeat.
+double HeartbeatPeriodS(const LinkOptions& options, std::size_t heartbeat_bits);
+inline constexpr double kSilencePeriods = 6.0;
+inline constexpr double kResendPeriods = 2.0;
 
 struct TeammateLinkState {
   int robot_id = 0;
@@ -125,6 +138,10 @@ class LinkEndpoint {
   const middleware::LinkStats& stats() const { return channel_.stats(); }
   const LinkCounters& counters() const { return counters_; }
   const std::map<int, TeammateLinkState>& teammates() const { return teammates_; }
+  // The heartbeat period in use (HeartbeatPeriodS), and the silence and resend times it sets.
+  double heartbeat_period_s() const { return heartbeat_period_s_; }
+  double silence_s() const;
+  double resend_map_s() const;
   middleware::TransportCounters transport_counters() const;
   std::uint32_t incarnation() const { return options_.incarnation; }
   // Statistics as JSON: per kind (sent, received, bits, max), counters, teammates.
@@ -155,6 +172,7 @@ class LinkEndpoint {
   std::vector<msgs::TeammateEvent> pending_events_;
   std::uint32_t seq_[msgs::kNumFleetKinds] = {};
   double next_heartbeat_s_ = 0.0;
+  double heartbeat_period_s_ = 0.0;  // HeartbeatPeriodS of the last heartbeat sent
   bool send_full_poses_ = false;
   msgs::ObjectMap last_map_;  // the newest own map and poses the agent gave
   bool has_last_map_ = false;
