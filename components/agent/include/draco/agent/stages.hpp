@@ -129,7 +129,7 @@ struct ObjectMapperStageOptions {
   // over the keyframes of the AHRS heading minus the local SLAM's yaw, instead of the first
   // AHRS reading alone: the AHRS error (a Gauss-Markov process of a few degrees) averages out
   // over the mission, and the heading follows the local SLAM's frame. false: the first reading.
-  bool map_heading_from_keyframes = false;
+  bool map_heading_from_keyframes = true;
 };
 
 class ObjectMapperStage {
@@ -261,7 +261,7 @@ struct ScanExchangeStageOptions {
   // With both maps' absolute headings known: the ambiguity test probes only turns within this
   // of the headings' difference, and a registration implying a map-to-map rotation further
   // from it is refused (kHeadingMismatch). <= 0: off.
-  double max_heading_gap_rad = 0.5236;  // 30 deg, as team.GraphMatcher's
+  double max_heading_gap_rad = objects::kDefaultMaxHeadingGapRad;  // 15 deg, as the matcher's
   // ... and with it the ambiguity test skips the turns the headings exclude. Off: on tuning
   // seeds 1-10 it accepted 64 % more loops (888, 886 true, against 543, 529 true) and placed
   // 18 pairs right against 16, but 8 wrong at the end against 3 (all 2-4.7 m, <= 4.9 deg off,
@@ -451,7 +451,7 @@ struct OptimizerStageOptions {
   // Absolute headings (msgs::ObjectMap::map_heading_rad, both maps): a teammate whose loops
   // imply a rotation more than this from the headings' difference is not placed (a grid
   // turned 180 deg), nor placed through a teammate's chain. <= 0: off.
-  double max_heading_gap_rad = 0.5236;  // 30 deg
+  double max_heading_gap_rad = objects::kDefaultMaxHeadingGapRad;  // 15 deg
   // The placed teammate is turned about the centroid of its keyframes in accepted loops by
   // this fraction of the gap between the rotation its placement has and the headings'
   // difference (0: off). Loops fix the placement where the paths meet, but their rotation is

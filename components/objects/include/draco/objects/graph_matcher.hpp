@@ -31,6 +31,13 @@ namespace draco::objects {
 // code's form with a shape tolerance growing with object size (see relative_shape_per_m).
 enum class AffinityForm { kCode, kPaper, kRelative };
 
+// The bound on the gap between a map-to-map rotation and the maps' absolute headings'
+// difference that the matcher, the scan exchange and the optimiser share: 15 deg. On tuning
+// seeds 1-10, marina and airplane, with keyframe-mean headings, 2,059 true inter-robot loops
+// came within 9.2 deg and every false one beyond 10 deg was 21 deg or more off
+// (docs/safe-merges.md, safeguard 1).
+inline constexpr double kDefaultMaxHeadingGapRad = 0.2618;
+
 struct MatcherOptions {
   // Defaults measured on the default missions (docs/front-end.md, "Matching on the default
   // missions"); the reference code: kCode, mu 8, 5 m, 4 inliers, no negative evidence, no
@@ -100,8 +107,9 @@ struct MatcherOptions {
   // carry one, every hypothesis whose rotation differs from the headings' difference by more
   // than this is dropped, and an answer that still does is kHeadingMismatch. A grid turned
   // 180 deg or 90 deg fits its piles again; the compass says which way is north. The AHRS's
-  // heading error (a few deg, plus a few near steel) stays well inside. <= 0: off.
-  double max_heading_gap_rad = 0.5236;  // 30 deg
+  // heading error (a few deg, plus a few near steel) stays inside when the headings are the
+  // keyframe means (team.ObjectMapper map_heading_from_keyframes). <= 0: off.
+  double max_heading_gap_rad = kDefaultMaxHeadingGapRad;
   // With both headings known and no answer from the paths above: translation votes. Each
   // pair of objects of similar shape (min_shape_similarity) votes for the translation that
   // lays them on each other, for rotations within +-heading_vote_turn_rad of the headings'
