@@ -5,6 +5,7 @@ missions of several lengths and team sizes; per component the mean, p99 and max 
 
     scripts/scaling.py [--build build] [--out runs/scaling] [--minutes 10,30,60,120]
         [--mission config/missions/marina.yaml] [--mission runs/g5/mission.yaml ...]
+        [--set optimizer.max_loops_per_teammate_keyframe=0 ...]
 
 Each mission's robots repeat their patterns (eight times) so that every length is reached; each
 run is capped with --duration-s. Writes OUT/scaling.md, OUT/scaling.csv and OUT/scaling.png.
@@ -37,6 +38,8 @@ def main():
     ap.add_argument("--minutes", default="10,30,60,120",
                     help="lengths; NAME=LIST per mission (e.g. g8=10,30,60) overrides for one")
     ap.add_argument("--mission", action="append")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE",
+                    help="passed to draco-fleet (a graph parameter of every robot)")
     ap.add_argument("--reuse", action="store_true",
                     help="keep the runs already in OUT (their scaling_run.json), run the rest")
     a = ap.parse_args()
@@ -67,6 +70,8 @@ def main():
             else:
                 cmd = ["/usr/bin/time", "-f", "%e %M", fleet, "--simulate", long_yaml,
                        "--duration-s", str(int(mins * 60)), "--mode", "inproc", "--out", run]
+                for kv in a.set:
+                    cmd += ["--set", kv]
                 print("scaling:", " ".join(cmd[3:]), flush=True)
                 p = subprocess.run(cmd, capture_output=True, text=True)
                 if p.returncode != 0:

@@ -1132,6 +1132,37 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
   }
 }
 
+// Every own keyframe of a repeated pass tied to teammate keyframes 2, 4 and 6: 24 accepted
+// true loops. The PGO holds the first max_loops_per_teammate_keyframe of each teammate
+// keyframe (12 at 4, 3 at 1, all 24 at 0) and places the teammate at the truth either way;
+// the placement evidence counts every accepted loop, so one loop a keyframe still places it.
+TEST(OptimizerStage, PgoHoldsTheFirstLoopsOfEachTeammateKeyframe) {
+  for (const auto& [bound, held] : std::vector<std::pair<int, int>>{{0, 24}, {4, 12}, {1, 3}}) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.max_loops_per_teammate_keyframe = bound;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    TeammateOne mate(&stage);
+    mate.matches.guesses[1].match.T_a_b = {6.0, 0.2, 0.4};  // the loops move it to T_0_1
+    std::vector<msgs::InterRobotLoop> loops;
+    std::uint64_t id = 1;
+    for (int own_k = 0; own_k < 8; ++own_k) {
+      for (const int mate_k : {2, 4, 6}) loops.push_back(mate.Loop(traj, id++, own_k, mate_k));
+    }
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    ASSERT_TRUE(st.optimized) << bound;
+    EXPECT_EQ(stage.estimate().loops_in_pgo, held) << bound;
+    ASSERT_EQ(stage.estimate().trajectories.count(1), 1u) << bound;
+    const Pose2 T = stage.estimate().T_own_teammate.at(1);
+    EXPECT_NEAR(T.x_m, mate.T_0_1.x_m, 1e-3) << bound;
+    EXPECT_NEAR(T.y_m, mate.T_0_1.y_m, 1e-3) << bound;
+    EXPECT_NEAR(T.yaw_rad, mate.T_0_1.yaw_rad, 1e-4) << bound;
+  }
+}
+
 TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   // The loops place robot 1 with a rotation of 0.3 rad (TeammateOne). Map headings whose
   // difference is 0.3 rad (give or take the AHRS's error) allow it; headings that say the

@@ -404,6 +404,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     problem.robots[robot] = std::move(rg);
     problem.maps[{own_id, robot}] = ToPg(*g);
   }
+  std::map<std::pair<int, int>, int> loops_at;  // {teammate, keyframe} -> loops in the PGO
   for (const auto& l : candidates) {
     if (!(l.flags & msgs::kLoopAccepted) || !loop_verified.count(l.teammate_robot)) continue;
     const auto r = problem.robots.find(l.teammate_robot);
@@ -413,6 +414,12 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
         !poses_.Known(l.teammate_robot, l.teammate_keyframe)) {
       continue;
     }
+    int& at = loops_at[{l.teammate_robot, l.teammate_keyframe}];
+    if (options_.max_loops_per_teammate_keyframe > 0 &&
+        at >= options_.max_loops_per_teammate_keyframe) {
+      continue;
+    }
+    ++at;
     auto loop = l;
     loop.flags = 0;
     problem.loops.push_back(loop);
@@ -504,6 +511,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   TeamEstimate next;
   next.time_s = now_s;
   next.map_checks = std::move(estimate_.map_checks);
+  next.loops_in_pgo = static_cast<int>(problem.loops.size());
   // Trajectories with real keyframes only; map-to-map estimates.
   for (const auto& [robot, poses] : placed) {
     auto& traj = next.trajectories[robot];

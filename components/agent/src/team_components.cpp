@@ -641,6 +641,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
         {.doc = "a teammate is placed only with at least this many accepted loops", .min = 0});
     spec.Param("min_distinct_keyframes", &o_.min_distinct_keyframes,
                {.doc = "... naming at least this many distinct keyframes of each robot", .min = 0});
+    spec.Param("max_loops_per_teammate_keyframe", &o_.max_loops_per_teammate_keyframe,
+               {.doc = "accepted loops the PGO holds per teammate keyframe, the first ones "
+                       "(placement evidence counts all; 0: every accepted loop)",
+                .min = 0});
     spec.Param("place_chained_teammates", &o_.place_chained_teammates,
                {.doc = "place a teammate without own verified loops through a teammate's "
                        "shared estimate"});

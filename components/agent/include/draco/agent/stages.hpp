@@ -419,6 +419,13 @@ struct OptimizerStageOptions {
   // this one accepted loop could place a teammate. 0: off.
   int min_teammate_loops = 5;
   int min_distinct_keyframes = 3;
+  // Loops the PGO holds per teammate keyframe: the first this many accepted (ascending id,
+  // so a loop once used stays used while accepted); the others are redundant for placing that
+  // keyframe. On repeated passes every pass of a teammate is tied to every earlier own pass,
+  // so accepted loops grow with the square of the mission; with the bound the PGO grows with
+  // the teammates' keyframes. Placement evidence (the rules above and below) counts every
+  // accepted loop. 0: every accepted loop.
+  int max_loops_per_teammate_keyframe = 4;
   // Competing evidence: every candidate loop with a teammate implies a map-to-map transform
   // (own keyframe pose * loop * inverse teammate keyframe pose). Candidates the filter did not
   // accept whose transforms agree with each other (within competitor_agree_m at the
@@ -480,6 +487,7 @@ struct TeamEstimate {
   std::map<int, msgs::Pose2> T_own_teammate;  // current map-to-map estimates
   // The map-level check of each teammate whose loops pass the evidence rules, this step.
   std::map<int, MapCheck> map_checks;
+  int loops_in_pgo = 0;  // accepted loops the problem held (max_loops_per_teammate_keyframe)
 };
 
 class OptimizerStage {
