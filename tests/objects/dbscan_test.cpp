@@ -179,6 +179,36 @@ TEST(Dbscan, IncrementalEqualsBatchOnRandomSequences) {
   }
 }
 
+// Rebuild computes in batch the state Add leaves: the same labels (ids included) and core
+// flags, and every later Add continues the same way (counts below min_points exact, roots and
+// nearest core points as Add keeps them).
+TEST(Dbscan, RebuildLeavesTheStateOfAdd) {
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    std::mt19937_64 rng(seed);
+    const DbscanOptions options{.eps_m = 1.5, .min_points = 5 + int(seed % 4) * 5};
+    const auto world = RandomWorld(&rng, 12, 60, 400, 60.0);
+    const std::size_t split = std::uniform_int_distribution<std::size_t>(0, world.size())(rng);
+    const std::vector<Point2> first(world.begin(), world.begin() + std::ptrdiff_t(split));
+    IncrementalDbscan added(options), rebuilt(options);
+    added.Add(first);
+    rebuilt.Add({{500.0, 500.0}, {900.0, 900.0}});  // points to forget
+    rebuilt.Rebuild(first);
+    ASSERT_EQ(rebuilt.size(), first.size());
+    ASSERT_EQ(rebuilt.Labels(), added.Labels()) << "seed " << seed;
+    for (std::size_t i = 0; i < first.size(); ++i) ASSERT_EQ(rebuilt.IsCore(i), added.IsCore(i));
+    std::uniform_int_distribution<int> chunk(1, 120);
+    for (std::size_t next = split; next < world.size();) {
+      const std::size_t end = std::min(world.size(), next + chunk(rng));
+      const std::vector<Point2> batch(world.begin() + std::ptrdiff_t(next),
+                                      world.begin() + std::ptrdiff_t(end));
+      added.Add(batch);
+      rebuilt.Add(batch);
+      next = end;
+      ASSERT_EQ(rebuilt.Labels(), added.Labels()) << "seed " << seed << " at " << end;
+    }
+  }
+}
+
 TEST(Dbscan, MergeKeepsOldestId) {
   const DbscanOptions options{.eps_m = 1.0, .min_points = 3};
   IncrementalDbscan dbscan(options);
@@ -265,6 +295,43 @@ TEST(ObjectMapper, FollowsMovedKeyframesLikeAFreshRun) {
   int kept = 0;
   for (const auto& o : after.objects) kept += ids_before.count(o.id) ? 1 : 0;
   EXPECT_GE(kept, static_cast<int>(after.objects.size()) - 1);
+}
+
+// SetPoses + Recluster: until Recluster the clusters keep the points where they were placed;
+// a keyframe that creeps (each step under the threshold, together over it) leaves one pending.
+TEST(ObjectMapper, SetPosesDefersTheReclusteringUntilAsked) {
+  ObjectMapperOptions options;
+  options.dbscan.min_points = 5;
+  options.min_points = 5;
+  ObjectMapper mapper(options);
+  std::vector<Point2> pile;  // 12 points around (10, 0) in the keyframe frame
+  for (int i = 0; i < 12; ++i) pile.push_back({10.0 + 0.1 * i, 0.03 * (i % 4)});
+  mapper.AddKeyframe(0, {0.0, 0.0, 0.0}, pile);
+  mapper.AddKeyframe(1, {0.0, 20.0, 0.0}, pile);
+  ASSERT_EQ(mapper.Objects().objects.size(), 2u);
+  // Keyframe 1 moved onto keyframe 0: one object once re-clustered, two until then.
+  EXPECT_TRUE(mapper.SetPoses({{1, {0.0, 0.0, 0.0}}}));
+  EXPECT_TRUE(mapper.recluster_pending());
+  EXPECT_EQ(mapper.Objects().objects.size(), 2u);
+  EXPECT_EQ(mapper.num_reclusters(), 0);
+  // A new keyframe joins at its pose before the re-clustering.
+  mapper.AddKeyframe(2, {0.0, 40.0, 0.0}, pile);
+  EXPECT_EQ(mapper.Objects().objects.size(), 3u);
+  EXPECT_TRUE(mapper.Recluster());
+  EXPECT_FALSE(mapper.recluster_pending());
+  EXPECT_FALSE(mapper.Recluster());  // nothing pending
+  EXPECT_EQ(mapper.num_reclusters(), 1);
+  const auto map = mapper.Objects();
+  ASSERT_EQ(map.objects.size(), 2u);
+  EXPECT_EQ(map.objects[0].num_points, 24);
+  EXPECT_EQ(map.objects[0].keyframes, (std::vector<int>{0, 1}));
+  EXPECT_NEAR(map.objects[0].center.y_m, 0.045, 1e-9);
+  EXPECT_NEAR(map.objects[1].center.y_m, 40.045, 1e-9);
+  // Creep: 0.03 m, then 0.03 m more (0.06 m from where its points are, threshold 0.05 m).
+  EXPECT_FALSE(mapper.SetPoses({{2, {0.0, 40.03, 0.0}}}));
+  EXPECT_TRUE(mapper.SetPoses({{2, {0.0, 40.06, 0.0}}}));
+  EXPECT_TRUE(mapper.Recluster());
+  EXPECT_NEAR(mapper.Objects().objects[1].center.y_m, 40.105, 1e-9);
 }
 
 }  // namespace

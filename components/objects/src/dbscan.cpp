@@ -92,12 +92,27 @@ struct CellGrid {
   }
 };
 
-}  // namespace
+// The batch clustering in the incremental form's terms: per point core or not, its neighbour
+// count (exact below min_points, min_points at or above), its cluster's lowest core point
+// index (core points), its nearest core point and squared distance (border points; -1 noise).
+struct BatchState {
+  std::vector<std::uint8_t> core;
+  std::vector<std::int32_t> count;
+  std::vector<std::uint32_t> root;
+  std::vector<std::int64_t> nearest;
+  std::vector<double> nearest_d2;
+};
 
-std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOptions& options) {
-  CheckOptions(options);
+BatchState ClusterBatch(const std::vector<Point2>& points, const DbscanOptions& options) {
   const std::size_t n = points.size();
-  if (n == 0) return {};
+  BatchState out;
+  out.core.assign(n, 0);
+  out.count.assign(n, 0);
+  out.root.resize(n);
+  for (std::size_t i = 0; i < n; ++i) out.root[i] = static_cast<std::uint32_t>(i);
+  out.nearest.assign(n, -1);
+  out.nearest_d2.assign(n, 0.0);
+  if (n == 0) return out;
   const double r2 = options.eps_m * options.eps_m;
   const auto min_points = static_cast<std::size_t>(options.min_points);
   const CellGrid g(points, options.eps_m);
@@ -112,6 +127,9 @@ std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOpti
   for (std::size_t c = 0; c < cells; ++c) {
     if (g.begin[c + 1] - g.begin[c] >= min_points) {
       std::fill(core.begin() + g.begin[c], core.begin() + g.begin[c + 1], 1);
+      for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
+        out.count[g.index[s]] = options.min_points;
+      }
       continue;
     }
     for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
@@ -123,6 +141,7 @@ std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOpti
         }
       }
       core[s] = count >= min_points;
+      out.count[g.index[s]] = static_cast<std::int32_t>(count);
     }
   }
   // 2. Clusters: the core points of a cell are one another's neighbours; two cells join when
@@ -157,7 +176,7 @@ std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOpti
       }
     }
   }
-  // Ids in the order of each cluster's lowest core point index.
+  // Each cluster's lowest core point index.
   std::vector<std::uint32_t> lowest(cells, std::numeric_limits<std::uint32_t>::max());
   for (std::uint32_t c = 0; c < cells; ++c) {
     for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
@@ -166,38 +185,49 @@ std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOpti
       low = std::min(low, g.index[s]);
     }
   }
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> roots;  // (lowest index, root)
-  for (std::uint32_t c = 0; c < cells; ++c) {
-    if (core_cell[c] && find(c) == c) roots.emplace_back(lowest[c], c);
-  }
-  std::sort(roots.begin(), roots.end());
-  std::vector<int> cluster(cells, kNoise);
-  for (std::size_t k = 0; k < roots.size(); ++k) cluster[roots[k].second] = static_cast<int>(k);
-  // 3. Labels: core points their cluster's; border points their nearest core point's.
-  std::vector<int> labels(n, kNoise);
+  // 3. Core points: their cluster's root; border points: their nearest core point.
   for (std::uint32_t c = 0; c < cells; ++c) {
     for (std::uint32_t s = g.begin[c]; s < g.begin[c + 1]; ++s) {
+      const std::uint32_t i = g.index[s];
       if (core[s]) {
-        labels[g.index[s]] = cluster[find(c)];
+        out.core[i] = 1;
+        out.root[i] = lowest[find(c)];
         continue;
       }
-      std::int64_t best = -1;
-      double best_d2 = 0.0;
-      int best_label = kNoise;
       for (std::uint32_t e = g.nbr_begin[c]; e < g.nbr_begin[c + 1]; ++e) {
         const std::uint32_t d = g.nbr[e];
         if (!core_cell[d]) continue;
         for (std::uint32_t t = g.begin[d]; t < g.begin[d + 1]; ++t) {
           if (!core[t]) continue;
-          const double d2 = Dist2(points[g.index[s]], points[g.index[t]]);
-          if (d2 <= r2 && Closer(d2, g.index[t], best_d2, best)) {
-            best = g.index[t];
-            best_d2 = d2;
-            best_label = cluster[find(d)];
+          const double d2 = Dist2(points[i], points[g.index[t]]);
+          if (d2 <= r2 && Closer(d2, g.index[t], out.nearest_d2[i], out.nearest[i])) {
+            out.nearest[i] = g.index[t];
+            out.nearest_d2[i] = d2;
           }
         }
       }
-      labels[g.index[s]] = best_label;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<int> DbscanBatch(const std::vector<Point2>& points, const DbscanOptions& options) {
+  CheckOptions(options);
+  const BatchState b = ClusterBatch(points, options);
+  // Ids in the order of each cluster's lowest core point index (its root).
+  std::vector<int> id(points.size(), kNoise);
+  int next = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (b.core[i] && b.root[i] == i) id[i] = next++;
+  }
+  std::vector<int> labels(points.size(), kNoise);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (b.core[i]) {
+      labels[i] = id[b.root[i]];
+    } else if (b.nearest[i] >= 0) {
+      labels[i] = id[b.root[static_cast<std::size_t>(b.nearest[i])]];
     }
   }
   return labels;
@@ -308,6 +338,29 @@ void IncrementalDbscan::Add(const std::vector<Point2>& points) {
     grid_.ForNeighbours(points_, points_[i], options_.eps_m, [&](std::uint32_t q) {
       if (core_[q]) OfferCore(ii, q);
     });
+  }
+}
+
+void IncrementalDbscan::Rebuild(const std::vector<Point2>& points) {
+  if (points.size() > std::numeric_limits<std::uint32_t>::max()) {
+    throw std::length_error("DBSCAN: too many points");
+  }
+  Clear();
+  BatchState b = ClusterBatch(points, options_);
+  const std::size_t n = points.size();
+  points_ = points;
+  count_ = std::move(b.count);
+  core_ = std::move(b.core);
+  parent_ = std::move(b.root);  // core points: the cluster's lowest index, as Union leaves it
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!core_[i]) parent_[i] = static_cast<std::uint32_t>(i);
+  }
+  component_id_.assign(n, -1);
+  nearest_core_ = std::move(b.nearest);
+  nearest_d2_ = std::move(b.nearest_d2);
+  for (std::size_t i = 0; i < n; ++i) grid_.Insert(points_[i], static_cast<std::uint32_t>(i));
+  for (std::size_t i = 0; i < n; ++i) {  // fresh ids in root order, as Add gives them
+    if (core_[i] && parent_[i] == i) component_id_[i] = next_id_++;
   }
 }
 

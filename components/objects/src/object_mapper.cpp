@@ -27,30 +27,47 @@ void ObjectMapper::AddKeyframe(int index, const Pose2& T_local_kf,
   for (const auto& kf : keyframes_) {
     if (kf.index == index) throw std::invalid_argument("ObjectMapper: keyframe added twice");
   }
-  keyframes_.push_back({index, T_local_kf, points_kf});
+  keyframes_.push_back({index, T_local_kf, T_local_kf, points_kf});
   dbscan_.Add(Place(keyframes_.back()));
   point_keyframe_.insert(point_keyframe_.end(), points_kf.size(), index);
 }
 
 bool ObjectMapper::UpdatePoses(const std::vector<KeyframePose>& poses) {
+  SetPoses(poses);
+  return Recluster();
+}
+
+bool ObjectMapper::SetPoses(const std::vector<KeyframePose>& poses) {
   std::unordered_map<int, std::size_t> slot;
   for (std::size_t i = 0; i < keyframes_.size(); ++i) slot[keyframes_[i].index] = i;
-  bool moved = false;
   for (const auto& pose : poses) {
     const auto it = slot.find(pose.index);
     if (it == slot.end()) continue;
-    Pose2& old = keyframes_[it->second].T_local_kf;
-    const double dt = std::hypot(pose.T_local_kf.x_m - old.x_m, pose.T_local_kf.y_m - old.y_m);
-    const double dr = std::abs(NormalizeAngle(pose.T_local_kf.yaw_rad - old.yaw_rad));
-    if (dt > options_.move_translation_m || dr > options_.move_rotation_rad) moved = true;
-    old = pose.T_local_kf;
+    Keyframe& kf = keyframes_[it->second];
+    kf.T_local_kf = pose.T_local_kf;
+    const Pose2& placed = kf.T_local_kf_placed;
+    const double dt =
+        std::hypot(pose.T_local_kf.x_m - placed.x_m, pose.T_local_kf.y_m - placed.y_m);
+    const double dr = std::abs(NormalizeAngle(pose.T_local_kf.yaw_rad - placed.yaw_rad));
+    if (dt > options_.move_translation_m || dr > options_.move_rotation_rad) pending_ = true;
   }
-  if (!moved) return false;
+  return pending_;
+}
+
+bool ObjectMapper::Recluster() {
+  if (!pending_) return false;
   const std::vector<int> previous = dbscan_.Labels();
-  dbscan_.Clear();
-  for (const auto& kf : keyframes_) dbscan_.Add(Place(kf));
+  std::vector<msgs::Point2> points;
+  points.reserve(previous.size());
+  for (auto& kf : keyframes_) {
+    kf.T_local_kf_placed = kf.T_local_kf;
+    const auto placed = Place(kf);
+    points.insert(points.end(), placed.begin(), placed.end());
+  }
+  dbscan_.Rebuild(points);
   dbscan_.RemapIds(previous);
   ++num_reclusters_;
+  pending_ = false;
   return true;
 }
 

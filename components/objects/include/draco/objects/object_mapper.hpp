@@ -5,6 +5,9 @@
 // keyframe's current pose and updates the clustering incrementally. When loop closures
 // move keyframes, UpdatePoses re-places every point and re-clusters from scratch (the
 // result is the same as clustering the re-placed map; ids are carried over by overlap).
+// A caller that bounds how often that happens (its cost is every point of the map) sets the
+// poses with SetPoses and re-clusters with Recluster when it chooses: until then the
+// clusters keep the points where they were placed, and new keyframes join at their poses.
 #pragma once
 
 #include <cstdint>
@@ -81,6 +84,14 @@ class ObjectMapper {
   // keyframe moved beyond the thresholds and the map was re-clustered.
   bool UpdatePoses(const std::vector<KeyframePose>& poses);
 
+  // UpdatePoses in two halves. SetPoses stores the poses; a keyframe that moved beyond the
+  // thresholds since its points were placed leaves a re-clustering pending (returned).
+  // Recluster re-places every point at its keyframe's current pose and re-clusters when one
+  // is pending (returns whether it did).
+  bool SetPoses(const std::vector<KeyframePose>& poses);
+  bool Recluster();
+  bool recluster_pending() const { return pending_; }
+
   // The object map (objects sorted by id).
   msgs::ObjectMap Objects(int robot_id = 0, double time_s = 0.0) const;
 
@@ -91,7 +102,8 @@ class ObjectMapper {
  private:
   struct Keyframe {
     int index = 0;
-    Pose2 T_local_kf;
+    Pose2 T_local_kf;         // current pose
+    Pose2 T_local_kf_placed;  // the pose its points were placed with
     std::vector<msgs::Point2> points_kf;
   };
   std::vector<msgs::Point2> Place(const Keyframe& kf) const;
@@ -101,6 +113,7 @@ class ObjectMapper {
   std::vector<Keyframe> keyframes_;  // in insertion order
   std::vector<int> point_keyframe_;  // keyframe index of every point
   int num_reclusters_ = 0;
+  bool pending_ = false;
 };
 
 std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::Point2>& points,
