@@ -334,5 +334,57 @@ TEST(ObjectMapper, SetPosesDefersTheReclusteringUntilAsked) {
   EXPECT_NEAR(mapper.Objects().objects[1].center.y_m, 40.105, 1e-9);
 }
 
+// Objects() describes again only the clusters whose members changed: asked after every
+// keyframe (and across a re-clustering), it gives exactly what a mapper asked once gives.
+TEST(ObjectMapper, ObjectsAskedEveryStepEqualObjectsAskedOnce) {
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> g(0.0, 0.3);
+  std::vector<Pose2> poses;
+  std::vector<std::vector<Point2>> scans;
+  for (int k = 0; k < 40; ++k) {
+    poses.push_back({2.0 * k, 0.01 * k * k, 0.003 * k});
+    std::vector<Point2> scan;
+    for (int pile = 0; pile < 9; ++pile) {
+      const double px = 10.0 * pile - 2.0 * k;
+      if (std::abs(px) > 14.0) continue;
+      for (int i = 0; i < 9; ++i) scan.push_back({px + 2.0 * g(rng), 8.0 + g(rng)});
+    }
+    for (int i = 0; i < 3; ++i) scan.push_back({30.0 * g(rng), 20.0 * g(rng)});  // clutter
+    scans.push_back(scan);
+  }
+  auto same = [](const msgs::ObjectMap& a, const msgs::ObjectMap& b) {
+    if (a.objects.size() != b.objects.size()) return false;
+    for (std::size_t i = 0; i < a.objects.size(); ++i) {
+      const auto &x = a.objects[i], &y = b.objects[i];
+      if (x.id != y.id || x.num_points != y.num_points || x.center.x_m != y.center.x_m ||
+          x.center.y_m != y.center.y_m || x.length_m != y.length_m || x.breadth_m != y.breadth_m ||
+          x.yaw_rad != y.yaw_rad || x.keyframes != y.keyframes) {
+        return false;
+      }
+    }
+    return true;
+  };
+  std::vector<KeyframePose> straight;  // a loop closure at keyframe 25 straightens 0-19
+  for (int j = 0; j < 20; ++j) straight.push_back({j, {2.0 * j, 0.0, 0.0}});
+  ObjectMapper every;
+  int compared = 0;
+  for (int k = 0; k < 40; ++k) {
+    every.AddKeyframe(k, poses[k], scans[k]);
+    if (k == 25) {
+      EXPECT_TRUE(every.UpdatePoses(straight));
+    }
+    const auto step = every.Objects();
+    ObjectMapper once;  // the same calls, Objects() only now
+    for (int j = 0; j <= k; ++j) {
+      once.AddKeyframe(j, poses[j], scans[j]);
+      if (j == 25) once.UpdatePoses(straight);
+    }
+    const auto fresh = once.Objects();
+    ASSERT_TRUE(same(step, fresh)) << "keyframe " << k;
+    compared += static_cast<int>(fresh.objects.size());
+  }
+  EXPECT_GT(compared, 100);
+}
+
 }  // namespace
 }  // namespace draco::objects

@@ -66,6 +66,7 @@ bool ObjectMapper::Recluster() {
   }
   dbscan_.Rebuild(points);
   dbscan_.RemapIds(previous);
+  described_.clear();  // every point moved
   ++num_reclusters_;
   pending_ = false;
   return true;
@@ -193,7 +194,51 @@ std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::
   return segments;
 }
 
-msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) const {
+void ObjectMapper::DescribeObjects(int id, const std::vector<std::size_t>& idx,
+                                   std::vector<msgs::Object>* out) const {
+  if (static_cast<int>(idx.size()) < options_.min_points) return;
+  std::vector<msgs::Point2> points;
+  points.reserve(idx.size());
+  std::vector<int> keyframes;
+  for (const std::size_t i : idx) {
+    points.push_back(dbscan_.points()[i]);
+    if (keyframes.empty() || keyframes.back() != point_keyframe_[i]) {
+      keyframes.push_back(point_keyframe_[i]);
+    }
+  }
+  msgs::Object object = DescribeCluster(points, options_.rectangle_center);
+  if (object.length_m < options_.min_length_m) return;
+  if (options_.split_min_length_m > 0.0 && object.length_m >= options_.split_min_length_m &&
+      object.length_m < options_.split_max_aspect * object.breadth_m && id < (1 << 16)) {
+    const auto segments = SplitIntoSegments(points, options_.segments);
+    if (!segments.empty()) {
+      std::vector<msgs::Point2> seg_points;
+      for (std::size_t k = 0; k < segments.size(); ++k) {
+        seg_points.clear();
+        std::vector<int> seg_keyframes;
+        for (const std::size_t j : segments[k]) {
+          seg_points.push_back(points[j]);
+          seg_keyframes.push_back(point_keyframe_[idx[j]]);
+        }
+        msgs::Object seg = DescribeCluster(seg_points, options_.rectangle_center);
+        std::sort(seg_keyframes.begin(), seg_keyframes.end());
+        seg_keyframes.erase(std::unique(seg_keyframes.begin(), seg_keyframes.end()),
+                            seg_keyframes.end());
+        seg.id = static_cast<std::uint32_t>(((k + 1) << 16) | std::size_t(id));
+        seg.keyframes = std::move(seg_keyframes);
+        out->push_back(std::move(seg));
+      }
+      return;
+    }
+  }
+  std::sort(keyframes.begin(), keyframes.end());
+  keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
+  object.id = static_cast<std::uint32_t>(id);
+  object.keyframes = std::move(keyframes);
+  out->push_back(std::move(object));
+}
+
+msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) {
   std::map<int, std::vector<std::size_t>> members;  // by id: sorted output
   for (std::size_t i = 0; i < dbscan_.size(); ++i) {
     const int label = dbscan_.Label(i);
@@ -202,48 +247,23 @@ msgs::ObjectMap ObjectMapper::Objects(int robot_id, double time_s) const {
   msgs::ObjectMap map;
   map.robot_id = robot_id;
   map.time_s = time_s;
-  std::vector<msgs::Point2> points;
+  // A cluster whose members are those it had at the last call, with no re-clustering in
+  // between (its points have not moved), is described as then.
+  std::map<int, Described> described;
   for (const auto& [id, idx] : members) {
-    if (static_cast<int>(idx.size()) < options_.min_points) continue;
-    points.clear();
-    std::vector<int> keyframes;
-    for (const std::size_t i : idx) {
-      points.push_back(dbscan_.points()[i]);
-      if (keyframes.empty() || keyframes.back() != point_keyframe_[i]) {
-        keyframes.push_back(point_keyframe_[i]);
-      }
+    std::uint64_t hash = 1469598103934665603ull;  // FNV-1a over the member indices
+    for (const std::size_t i : idx) hash = (hash ^ std::uint64_t(i)) * 1099511628211ull;
+    Described d{idx.size(), hash, {}};
+    const auto it = described_.find(id);
+    if (it != described_.end() && it->second.members == d.members && it->second.hash == hash) {
+      d.objects = std::move(it->second.objects);
+    } else {
+      DescribeObjects(id, idx, &d.objects);
     }
-    msgs::Object object = DescribeCluster(points, options_.rectangle_center);
-    if (object.length_m < options_.min_length_m) continue;
-    if (options_.split_min_length_m > 0.0 && object.length_m >= options_.split_min_length_m &&
-        object.length_m < options_.split_max_aspect * object.breadth_m && id < (1 << 16)) {
-      const auto segments = SplitIntoSegments(points, options_.segments);
-      if (!segments.empty()) {
-        std::vector<msgs::Point2> seg_points;
-        for (std::size_t k = 0; k < segments.size(); ++k) {
-          seg_points.clear();
-          std::vector<int> seg_keyframes;
-          for (const std::size_t j : segments[k]) {
-            seg_points.push_back(points[j]);
-            seg_keyframes.push_back(point_keyframe_[idx[j]]);
-          }
-          msgs::Object seg = DescribeCluster(seg_points, options_.rectangle_center);
-          std::sort(seg_keyframes.begin(), seg_keyframes.end());
-          seg_keyframes.erase(std::unique(seg_keyframes.begin(), seg_keyframes.end()),
-                              seg_keyframes.end());
-          seg.id = static_cast<std::uint32_t>(((k + 1) << 16) | std::size_t(id));
-          seg.keyframes = std::move(seg_keyframes);
-          map.objects.push_back(std::move(seg));
-        }
-        continue;
-      }
-    }
-    std::sort(keyframes.begin(), keyframes.end());
-    keyframes.erase(std::unique(keyframes.begin(), keyframes.end()), keyframes.end());
-    object.id = static_cast<std::uint32_t>(id);
-    object.keyframes = std::move(keyframes);
-    map.objects.push_back(std::move(object));
+    map.objects.insert(map.objects.end(), d.objects.begin(), d.objects.end());
+    described.emplace(id, std::move(d));
   }
+  described_ = std::move(described);
   std::sort(map.objects.begin(), map.objects.end(),
             [](const msgs::Object& x, const msgs::Object& y) { return x.id < y.id; });
   return map;

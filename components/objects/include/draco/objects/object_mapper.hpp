@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "draco/msgs/map.hpp"
@@ -92,8 +93,9 @@ class ObjectMapper {
   bool Recluster();
   bool recluster_pending() const { return pending_; }
 
-  // The object map (objects sorted by id).
-  msgs::ObjectMap Objects(int robot_id = 0, double time_s = 0.0) const;
+  // The object map (objects sorted by id). Clusters whose members did not change since the
+  // last call (and no Recluster in between) are not described again.
+  msgs::ObjectMap Objects(int robot_id = 0, double time_s = 0.0);
 
   const IncrementalDbscan& clusters() const { return dbscan_; }
   int num_reclusters() const { return num_reclusters_; }
@@ -107,6 +109,14 @@ class ObjectMapper {
     std::vector<msgs::Point2> points_kf;
   };
   std::vector<msgs::Point2> Place(const Keyframe& kf) const;
+  // The objects of cluster id (members idx, sorted): none, one, or its segments.
+  void DescribeObjects(int id, const std::vector<std::size_t>& idx,
+                       std::vector<msgs::Object>* out) const;
+  struct Described {
+    std::size_t members = 0;
+    std::uint64_t hash = 0;  // of the member indices
+    std::vector<msgs::Object> objects;
+  };
 
   ObjectMapperOptions options_;
   IncrementalDbscan dbscan_;
@@ -114,6 +124,7 @@ class ObjectMapper {
   std::vector<int> point_keyframe_;  // keyframe index of every point
   int num_reclusters_ = 0;
   bool pending_ = false;
+  std::map<int, Described> described_;  // by cluster id, at the last Objects()
 };
 
 std::vector<std::vector<std::size_t>> SplitIntoSegments(const std::vector<msgs::Point2>& points,
