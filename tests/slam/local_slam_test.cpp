@@ -248,6 +248,56 @@ TEST(LocalSlam, AmbiguityTestKeepsTheLoopsOfADistinctiveWorld) {
   }
 }
 
+TEST(LocalSlam, LoopChainChi2IsTheCorrectionUnderBothCovariances) {
+  const msgs::Covariance3 chain{1.0, 0, 0, 0, 1.0, 0, 0, 0, 0.01};
+  const msgs::Covariance3 loop{1.0, 0, 0, 0, 1.0, 0, 0, 0, 0.01};
+  // 2 m along x under a summed variance of 2 m^2: 4 / 2.
+  EXPECT_NEAR(LoopChainChi2({10.0, 0.0, 0.0}, {12.0, 0.0, 0.0}, chain, loop), 2.0, 1e-12);
+  // Plus 0.1 rad under 0.02 rad^2: 0.01 / 0.02.
+  EXPECT_NEAR(LoopChainChi2({10.0, 0.0, 0.0}, {12.0, 0.0, 0.1}, chain, loop), 2.5, 1e-12);
+  // The yaw difference is wrapped: 3.1 against -3.1 rad is 0.083 rad apart.
+  const double d = 2 * M_PI - 6.2;
+  EXPECT_NEAR(LoopChainChi2({0.0, 0.0, 3.1}, {0.0, 0.0, -3.1}, chain, loop), d * d / 0.02, 1e-9);
+  // A longer chain (four times the variance) explains the same correction better.
+  const msgs::Covariance3 long_chain{4.0, 0, 0, 0, 4.0, 0, 0, 0, 0.04};
+  EXPECT_NEAR(LoopChainChi2({10.0, 0.0, 0.0}, {12.0, 0.0, 0.0}, long_chain, loop), 0.8, 1e-12);
+  // Not positive definite: refused (infinity).
+  const msgs::Covariance3 zero{};
+  EXPECT_TRUE(std::isinf(LoopChainChi2({0.0, 0.0, 0.0}, {0.1, 0.0, 0.0}, zero, zero)));
+}
+
+// The chain test keeps the true loops of a drifting mission when the chain's covariance is
+// honest, and refuses every loop when the chain claims no drift at all.
+TEST(LocalSlam, ChainTestKeepsLoopsAnHonestChainExplains) {
+  std::mt19937 rng(3);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  for (const double chi2 : {11.34, 1e-6}) {
+    icp::SequentialScanMatcher matcher;
+    LocalSlamOptions o;
+    o.loop_chain_chi2 = chi2;
+    LocalSlam slam(o);
+    int accepted = 0, refused = 0;
+    for (const auto& kf : mission.keyframes) {
+      const auto factor = matcher.AddKeyframe(kf);
+      const StepResult r = slam.AddKeyframe(kf, factor ? &*factor : nullptr);
+      accepted += r.loops_accepted;
+      refused += r.loops_chain_rejected;
+    }
+    const double dr_ate = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
+    const double slam_ate = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+    std::printf("chain chi2 %g: %d loops accepted, %d refused; ATE %.2f m (DR %.2f m)\n", chi2,
+                accepted, refused, slam_ate, dr_ate);
+    if (chi2 > 1.0) {
+      EXPECT_GT(accepted, 3);
+      EXPECT_LT(slam_ate, 0.3 * dr_ate);
+    } else {
+      EXPECT_EQ(accepted, 0);
+      EXPECT_GT(refused, 3);
+    }
+  }
+}
+
 TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   std::mt19937 rng(4);
   const World world = MakeWorld(rng);

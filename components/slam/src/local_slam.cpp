@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 
 #include "draco/consistency/filter.hpp"
@@ -289,6 +290,20 @@ msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double
   return consistency::FromMatrix(cov);
 }
 
+double LoopChainChi2(const msgs::Pose2& T_j_k_estimate, const msgs::Pose2& T_j_k_loop,
+                     const msgs::Covariance3& chain_covariance,
+                     const msgs::Covariance3& loop_covariance) {
+  // Both covariances are of (x, y, yaw) of T_j_k in keyframe j's frame: so is the difference.
+  const Eigen::Vector3d e(T_j_k_loop.x_m - T_j_k_estimate.x_m, T_j_k_loop.y_m - T_j_k_estimate.y_m,
+                          consistency::WrapAngle(T_j_k_loop.yaw_rad - T_j_k_estimate.yaw_rad));
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(consistency::ToMatrix(chain_covariance) +
+                                          consistency::ToMatrix(loop_covariance));
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() || ldlt.vectorD().minCoeff() <= 0.0) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return e.dot(ldlt.solve(e));
+}
+
 struct LocalSlam::Impl {
   LocalSlamOptions options;
   pg::PoseGraph2d graph;
@@ -299,7 +314,8 @@ struct LocalSlam::Impl {
   std::vector<LoopRecord> loops;
   std::map<std::uint64_t, std::size_t> loop_by_id;
   std::uint64_t next_loop_id = 0;
-  int ambiguous_loops = 0;  // candidates dropped by the ambiguity test, this step
+  int ambiguous_loops = 0;       // candidates dropped by the ambiguity test, this step
+  int chain_rejected_loops = 0;  // candidates the chain test dropped, this step
 
   // Point landmarks; the index is the graph's point id.
   struct LandmarkSighting {
@@ -573,6 +589,17 @@ struct LocalSlam::Impl {
           std::abs(correction.yaw_rad) > o.loop_max_correction_rad) {
         continue;
       }
+      const msgs::Covariance3 loop_covariance =
+          LoopCovariance(r.covariance, r.rmse_m, r.overlap_ratio, o);
+      if (o.loop_chain_chi2 > 0) {
+        const auto chain_j_k = chain.Relative(0, j, k);
+        if (chain_j_k &&
+            LoopChainChi2(guess, r.T_target_source, consistency::FromMatrix(chain_j_k->covariance),
+                          loop_covariance) > o.loop_chain_chi2) {
+          ++chain_rejected_loops;
+          continue;
+        }
+      }
       msgs::InterRobotLoop loop;
       loop.id = next_loop_id++;
       // As a PCM candidate: own keyframe j, "teammate" keyframe k of the same robot.
@@ -581,7 +608,7 @@ struct LocalSlam::Impl {
       loop.own_keyframe = j;
       loop.teammate_keyframe = k;
       loop.T_ownkf_teammatekf = r.T_target_source;
-      loop.covariance = LoopCovariance(r.covariance, r.rmse_m, r.overlap_ratio, o);
+      loop.covariance = loop_covariance;
       if (o.loop_ambiguity_ratio > 0 && o.loop_ambiguity_inflate) {
         // The plateau's elongation (its spread beyond the isotropic part) is added to the
         // translation covariance (target frame, as the lattice): along a wall the loop then
@@ -685,6 +712,8 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   result.loops_registered = static_cast<int>(proposed.size());
   result.loops_ambiguous = m.ambiguous_loops;
   m.ambiguous_loops = 0;
+  result.loops_chain_rejected = m.chain_rejected_loops;
+  m.chain_rejected_loops = 0;
   if (!proposed.empty()) {
     const consistency::Decision d = m.pcm.Add(proposed, m.chain);
     for (std::uint64_t id : d.newly_accepted) {

@@ -98,6 +98,16 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "loop xy variance at least this times the ICP rmse^2 (0: off)", .min = 0});
     spec.Param("loop_overlap_cov_power", &o_.loop_overlap_cov_power,
                {.doc = "loop covariance times (1/overlap)^power (0: off)", .min = 0});
+    spec.Param("loop_max_correction_m", &o_.loop_max_correction_m,
+               {.doc = "reject loops that move the estimate by more (seed search + ICP)",
+                .unit = "m",
+                .min = 0});
+    spec.Param("loop_max_correction_rad", &o_.loop_max_correction_rad,
+               {.doc = "reject loops that turn the estimate by more", .unit = "rad", .min = 0});
+    spec.Param("loop_chain_chi2", &o_.loop_chain_chi2,
+               {.doc = "refuse a loop whose correction of the estimate has a larger squared "
+                       "Mahalanobis distance under the keyframe chain's covariance (0: off)",
+                .min = 0});
     spec.Param("loop_max_rmse_m", &o_.loop_max_rmse_m,
                {.doc = "reject loops with a larger ICP rmse (0: no gate)", .unit = "m", .min = 0});
     spec.Param("loop_ambiguity_ratio", &o_.loop_ambiguity_ratio,
@@ -195,6 +205,7 @@ class LocalSlamComponent final : public graph::Component {
         const StepResult r = slam_.AddKeyframe(*kf, factor);
         loops_accepted_ += r.loops_accepted;
         loops_ambiguous_ += r.loops_ambiguous;
+        loops_chain_rejected_ += r.loops_chain_rejected;
       } catch (const std::exception& e) {
         pending_keyframes_.pop_front();
         return Status::Error(e.what());
@@ -213,6 +224,11 @@ class LocalSlamComponent final : public graph::Component {
                      ? " ambiguous loops kept with their slide added to the covariance"
                      : " loop candidates dropped as ambiguous") +
                 " (loop_ambiguity_ratio)");
+    }
+    if (loops_chain_rejected_ > 0) {
+      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_chain_rejected_) +
+                " loop candidates refused: a correction the keyframe chain cannot explain "
+                "(loop_chain_chi2)");
     }
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;
@@ -301,6 +317,7 @@ class LocalSlamComponent final : public graph::Component {
   LocalSlam slam_;
   int loops_accepted_ = 0;
   int loops_ambiguous_ = 0;
+  int loops_chain_rejected_ = 0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;
   std::map<int, graph::Stamped<msgs::SequentialFactor>> pending_factors_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -73,6 +73,12 @@ struct LocalSlamOptions {
   double seed_angle_step_rad = 2.0 * std::numbers::pi / 180.0;
   double loop_max_correction_m = 3.0;  // seed + ICP may move the estimate by at most this
   double loop_max_correction_rad = 30.0 * std::numbers::pi / 180.0;
+  // A loop's correction of the estimate (seed + ICP result against the estimate's relative
+  // pose) must be explained by the drift the keyframe chain between its ends allows: its
+  // squared Mahalanobis distance under the chain's relative covariance plus the loop's own
+  // must stay below this (3 dof; 0: off). A row of piles aliases by one spacing whatever the
+  // gap; the chain's covariance tells a 2 m slip over 8 keyframes from 2 m of drift over 80.
+  double loop_chain_chi2 = 0.0;
   // Loop covariance floor (the reference's ICP sigmas 0.1 m, 0.01 rad) and the PCM test.
   double loop_min_sigma_xy_m = 0.1;
   double loop_min_sigma_yaw_rad = 0.01;
@@ -202,6 +208,7 @@ struct StepResult {
   // Candidates the ambiguity test dropped, or (loop_ambiguity_inflate) kept with more than
   // 0.5 m of slide added to their covariance.
   int loops_ambiguous = 0;
+  int loops_chain_rejected = 0;  // candidates whose correction the chain test refused
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
@@ -210,6 +217,14 @@ struct StepResult {
 // inflated by the residual (rmse) and overlap terms of the options.
 msgs::Covariance3 LoopCovariance(const msgs::Covariance3& icp_covariance, double rmse_m,
                                  double overlap_ratio, const LocalSlamOptions& options);
+
+// Squared Mahalanobis distance between a loop's registration T_j_k_loop (keyframe k in the
+// older keyframe j's frame) and the estimate's T_j_k_estimate, under the keyframe chain's
+// covariance of T_j_k plus the loop's own: the drift the chain allows between j and k.
+// Infinity when the summed covariance is not positive definite.
+double LoopChainChi2(const msgs::Pose2& T_j_k_estimate, const msgs::Pose2& T_j_k_loop,
+                     const msgs::Covariance3& chain_covariance,
+                     const msgs::Covariance3& loop_covariance);
 
 // Correlative search for a loop's ICP seed: the target rasterised at seed_resolution_m
 // (occupied cells dilated by one), every pose of the lattice around `guess` (translations
