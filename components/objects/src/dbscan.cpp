@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <tuple>
 #include <unordered_map>
+#include <utility>
 
 namespace draco::objects {
 namespace {
@@ -341,14 +342,14 @@ void IncrementalDbscan::Add(const std::vector<Point2>& points) {
   }
 }
 
-void IncrementalDbscan::Rebuild(const std::vector<Point2>& points) {
+void IncrementalDbscan::Rebuild(std::vector<Point2> points) {
   if (points.size() > std::numeric_limits<std::uint32_t>::max()) {
     throw std::length_error("DBSCAN: too many points");
   }
   Clear();
   BatchState b = ClusterBatch(points, options_);
   const std::size_t n = points.size();
-  points_ = points;
+  points_ = std::move(points);
   count_ = std::move(b.count);
   core_ = std::move(b.core);
   parent_ = std::move(b.root);  // core points: the cluster's lowest index, as Union leaves it

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include "draco/objects/geometry.hpp"
 
@@ -64,7 +65,7 @@ bool ObjectMapper::Recluster() {
     const auto placed = Place(kf);
     points.insert(points.end(), placed.begin(), placed.end());
   }
-  dbscan_.Rebuild(points);
+  dbscan_.Rebuild(std::move(points));
   dbscan_.RemapIds(previous);
   described_.clear();  // every point moved
   ++num_reclusters_;

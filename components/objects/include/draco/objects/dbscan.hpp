@@ -72,7 +72,7 @@ class IncrementalDbscan {
   // Clear() then Add(points), computed in batch (DbscanBatch's cell grid, several times
   // faster): the same clustering and state, so later Adds continue as after Add(points).
   // Ids: fresh ones in the order of each cluster's lowest core point (RemapIds carries them).
-  void Rebuild(const std::vector<Point2>& points);
+  void Rebuild(std::vector<Point2> points);
   // After Clear() and re-adding the same number of points: gives each cluster the oldest
   // id it held in previous_labels (one label per point, as returned by Labels() before),
   // each old id to at most one cluster (the one with most of its points on a tie of age);
