@@ -4,7 +4,6 @@
 // directly (no link) step by step.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -1534,48 +1533,6 @@ TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
   // A restart of B drops its candidates.
   stage.Forget(kB);
   EXPECT_TRUE(stage.candidates().empty());
-}
-
-// min_distinct_keyframes: the consistent set of a teammate counts only when its loops name
-// that many keyframes of each robot; at the number they name, the answer is unchanged, one
-// more and nothing is accepted or sent (the loops stay candidates).
-TEST(ConsistencyStage, LoopsOnTooFewKeyframesAreNotAccepted) {
-  Mission run;
-  Simulate(&run);
-  std::vector<msgs::InterRobotLoop> registered;
-  for (auto l : run.agent_a->consistency().candidates()) {
-    if (l.own_robot != kA) continue;
-    l.id = 0;
-    l.flags = 0;
-    registered.push_back(l);
-  }
-  const msgs::MapMatches& matches = run.agent_a->matcher().matches();
-  auto run_with = [&](int min_keyframes, std::vector<msgs::LoopClosureMessage>* sent) {
-    auto options = TeamAgent::ConsistencyOptions(Options(kA));
-    options.min_distinct_keyframes = min_keyframes;
-    ConsistencyStage stage(options);
-    FeedOwnAndTeammatePoses(run, &stage);
-    msgs::TeamStepStats st;
-    *sent = stage.Step(100.0, registered, matches, &st);
-    EXPECT_EQ(stage.candidates().size(), registered.size());
-    return stage.accepted();
-  };
-  std::vector<msgs::LoopClosureMessage> sent;
-  const auto all = run_with(0, &sent);
-  ASSERT_GE(all.size(), 5u);
-  std::set<int> own_kfs, mate_kfs;
-  for (const auto& l : all) {
-    own_kfs.insert(l.own_keyframe);
-    mate_kfs.insert(l.teammate_keyframe);
-  }
-  const int named = static_cast<int>(std::min(own_kfs.size(), mate_kfs.size()));
-  ASSERT_GE(named, 2);
-  const auto same = run_with(named, &sent);
-  ASSERT_EQ(same.size(), all.size());
-  for (std::size_t i = 0; i < all.size(); ++i) EXPECT_EQ(same[i].id, all[i].id);
-  EXPECT_EQ(sent.size(), 1u);
-  EXPECT_TRUE(run_with(named + 1, &sent).empty());
-  EXPECT_TRUE(sent.empty());
 }
 
 TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {

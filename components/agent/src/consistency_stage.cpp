@@ -65,26 +65,6 @@ struct ConsistencyStage::Impl {
     return source;
   }
 
-  // The filter's consistent set without the loops of teammates that name fewer than
-  // options.min_distinct_keyframes keyframes of either robot in it.
-  std::set<std::uint64_t> Supported(const std::vector<std::uint64_t>& consistent) const {
-    std::set<std::uint64_t> out(consistent.begin(), consistent.end());
-    if (options.min_distinct_keyframes <= 0) return out;
-    std::map<int, std::pair<std::set<int>, std::set<int>>> keyframes;  // teammate: own, theirs
-    for (const auto& l : candidates) {
-      if (!out.count(l.id)) continue;
-      auto& k = keyframes[l.teammate_robot];
-      k.first.insert(l.own_keyframe);
-      k.second.insert(l.teammate_keyframe);
-    }
-    const auto n = static_cast<std::size_t>(options.min_distinct_keyframes);
-    for (const auto& l : candidates) {
-      const auto& k = keyframes[l.teammate_robot];
-      if (out.count(l.id) && (k.first.size() < n || k.second.size() < n)) out.erase(l.id);
-    }
-    return out;
-  }
-
   // Candidate and accepted lists and per-teammate counts.
   void RefreshLoopViews() {
     owner->view_.clear();
@@ -128,7 +108,7 @@ struct ConsistencyStage::Impl {
     if (!candidates.empty()) {
       const auto source = BuildPoseSource();
       const auto d = filter->Add(candidates, source);
-      accepted_ids = Supported(d.accepted);
+      accepted_ids.insert(d.accepted.begin(), d.accepted.end());
     }
     accepted_changed = true;
     RefreshLoopViews();
@@ -247,7 +227,7 @@ std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
     const auto source = a.BuildPoseSource();
     const auto d = a.filter->Add(fresh, source);
     a.candidates.insert(a.candidates.end(), fresh.begin(), fresh.end());
-    a.accepted_ids = a.Supported(d.accepted);
+    a.accepted_ids = std::set<std::uint64_t>(d.accepted.begin(), d.accepted.end());
     a.accepted_changed = true;
     a.RefreshLoopViews();
   }

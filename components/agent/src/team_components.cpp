@@ -518,10 +518,6 @@ class ConsistencyFilterComponent final : public graph::Component {
     spec.Param("method", &method_, {.doc = "consistency filter", .choices = {"gcm", "pcm"}});
     spec.Param("min_clique_size", &o_.filter.min_clique_size,
                {.doc = "minimum consistent set", .min = 1});
-    spec.Param("min_distinct_keyframes", &o_.min_distinct_keyframes,
-               {.doc = "a teammate's consistent loops count as accepted only when they name this "
-                       "many distinct keyframes of each robot (0: off)",
-                .min = 0});
     spec.Param("map_sigma_m", &o_.map_sigma_m,
                {.doc = "map-to-map guess sigma in GCM", .unit = "m", .min = 0.0});
     spec.Param("map_sigma_rad", &o_.map_sigma_rad,

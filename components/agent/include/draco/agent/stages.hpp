@@ -342,12 +342,6 @@ struct ConsistencyStageOptions {
   // Loops a teammate may hand us over a mission (a mission gives tens); beyond, its loops are
   // ignored and counted, so a faulty teammate cannot grow the filter's problem without end.
   int max_received_loops_per_teammate = 2000;
-  // A teammate's loops in the consistent set count as accepted (and are sent to it) only
-  // when they name at least this many distinct keyframes of each robot: loops that hang on
-  // one or two scans are consistent with a map-to-map guess, not independent evidence for it
-  // (the optimiser places a teammate on no fewer: OptimizerStageOptions::
-  // min_distinct_keyframes). They stay candidates. 0: off.
-  int min_distinct_keyframes = 0;
 };
 
 class ConsistencyStage {
