@@ -57,6 +57,19 @@ std::vector<std::uint64_t> ParseSeeds(const std::string& text) {
   return out;
 }
 
+// The last "[error]" line of a step's log, without its time stamp ("" when none), so the
+// console says why a world did not run.
+std::string LastError(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line)) {
+    const auto at = line.find("[error] ");
+    if (at != std::string::npos) last = line.substr(at + 8);
+  }
+  if (last.size() > 300) last = last.substr(0, 297) + "...";
+  return last;
+}
+
 std::map<std::string, std::string> ReadKeyValues(const fs::path& p) {
   std::map<std::string, std::string> out;
   std::ifstream f(p);
@@ -369,6 +382,16 @@ int main(int argc, char** argv) {
       std::printf("%s: right %d, wrong %d, none %d; loops %d (%d true); %.0f s\n", w.status.c_str(),
                   w.right, w.wrong, w.none, w.accepted, w.accepted_true, w.wall_s);
       write();
+      if (w.status != "ok" && w.status != "no run to judge") {
+        const std::string why = LastError(log);
+        std::printf("  %s (%s)\n", why.empty() ? "no error logged" : why.c_str(), log.c_str());
+        // An override no component takes fails every world alike: stop here.
+        if (w.status == "team run failed" && why.rfind("--set ", 0) == 0) {
+          std::fflush(stdout);
+          draco::log::Error("draco-worlds: stopped: a --set override fails every team run");
+          return 2;
+        }
+      }
     }
     std::printf("\n%s\n%s/worlds.md\n", WorldsMarkdown(rows).c_str(), out.c_str());
     return 0;
