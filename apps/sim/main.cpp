@@ -148,7 +148,7 @@ double Overlap(const std::vector<Vec2>& mine, const std::vector<std::vector<Vec2
 int RunMission(const std::string& mission_file, const std::string& out_dir,
                std::optional<std::uint64_t> seed, std::optional<double> duration_s,
                std::optional<int> robots, int threads, bool pictures, bool sonar_on,
-               draco::app::RunInfo run_info) {
+               int ping_quantization_step, draco::app::RunInfo run_info) {
   const auto t_start = Clock::now();
   draco::sim::Mission mission = draco::sim::LoadMission(mission_file);
   if (seed) mission.seed = *seed;
@@ -170,7 +170,9 @@ int RunMission(const std::string& mission_file, const std::string& out_dir,
             << world.primitives.size() << " primitives), " << n << " robots, seed " << mission.seed
             << ", out " << out_dir << "\n";
 
-  draco::sim_app::MissionOutput output(out_dir, mission, indices);
+  draco::recording::WriterOptions writer_options;
+  writer_options.ping_quantization_step = ping_quantization_step;
+  draco::sim_app::MissionOutput output(out_dir, mission, indices, writer_options);
   run_info.AddFile("mission", mission_file);
   draco::app::WriteRunInfo(out_dir, run_info);
   std::vector<std::unique_ptr<draco::sim_app::RecordingSink>> sinks;
@@ -351,6 +353,7 @@ int main(int argc, char** argv) {
   int threads = 0;  // 0: one thread per robot
   bool no_pictures = false;
   bool no_sonar = false;
+  int ping_quantization_step = 1;
   app.add_option("mission", mission_file, "mission YAML (config/missions/*.yaml)");
   auto* out_opt = app.add_option("--out", out_dir, "output mission directory");
   auto* seed_opt = app.add_option("--seed", seed, "override the mission seed");
@@ -360,6 +363,10 @@ int main(int argc, char** argv) {
                  "worker threads; robots run in parallel (default: one per robot)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-pictures", no_pictures, "skip the PNG pictures");
+  app.add_option("--ping-quantization-step", ping_quantization_step,
+                 "store each ping intensity v as Q*floor(v/Q)+floor(Q/2) (lossy, smaller files; "
+                 "docs/recording-format.md); default 1: exact")
+      ->check(CLI::Range(1, 128));
   app.add_flag("--no-sonar", no_sonar,
                "navigation and ground truth only (fast; for designing missions)");
   auto* world_opt = app.add_option("--world", world_file, "world YAML, with --picture");
@@ -407,7 +414,7 @@ int main(int argc, char** argv) {
                       seed_opt->count() ? std::optional<std::uint64_t>(seed) : std::nullopt,
                       duration_opt->count() ? std::optional<double>(duration_s) : std::nullopt,
                       robots_opt->count() ? std::optional<int>(robots) : std::nullopt, threads,
-                      !no_pictures, !no_sonar, run_info);
+                      !no_pictures, !no_sonar, ping_quantization_step, run_info);
   } catch (const std::exception& e) {
     draco::log::Error(std::string("draco-sim: ") + e.what());
     return 1;

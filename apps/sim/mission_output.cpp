@@ -68,9 +68,12 @@ struct MissionOutput::Impl {
 };
 
 MissionOutput::MissionOutput(const std::filesystem::path& dir, const sim::Mission& mission,
-                             const std::vector<int>& robot_indices)
-    : impl_(new Impl{
-          recording::MissionWriter::Create(dir, MakeInfo(mission, robot_indices)), {}, {}}) {
+                             const std::vector<int>& robot_indices,
+                             const recording::WriterOptions& options)
+    : impl_(
+          new Impl{recording::MissionWriter::Create(dir, MakeInfo(mission, robot_indices), options),
+                   {},
+                   {}}) {
   for (int index : robot_indices) {
     impl_->names.push_back({index, mission.robots.at(static_cast<std::size_t>(index)).name});
   }

@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "draco/recording/recording.hpp"
 #include "draco/sim/mission.hpp"
 #include "draco/sim/simulator.hpp"
 
@@ -22,7 +23,8 @@ class MissionOutput {
  public:
   // Creates (or replaces) the mission directory for the given robots of the mission.
   MissionOutput(const std::filesystem::path& dir, const sim::Mission& mission,
-                const std::vector<int>& robot_indices);
+                const std::vector<int>& robot_indices,
+                const recording::WriterOptions& options = {});
   ~MissionOutput();
   MissionOutput(const MissionOutput&) = delete;
   MissionOutput& operator=(const MissionOutput&) = delete;

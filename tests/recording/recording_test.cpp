@@ -415,6 +415,58 @@ TEST_F(RecordingTest, WriterRefusesCompressionLevelsOutsideTheCodecsRange) {
   EXPECT_NO_THROW(MissionWriter::Create(dir_, info, {ImageCompression::kRaw, 0}));
 }
 
+TEST_F(RecordingTest, QuantizedPingsReadBackAsTheStepsMidpointsAndAreSmaller) {
+  MissionInfo info = TwoRobotMission();
+  info.robots.resize(1);
+  std::mt19937 rng(7);
+  const msgs::SonarPing ping = MakePing(1.0, 1, 256, 128, rng);
+  std::uintmax_t exact_size = 0;
+  for (const int step : {1, 8, 16}) {
+    SCOPED_TRACE(step);
+    WriterOptions options;
+    options.ping_quantization_step = step;
+    MissionWriter mission = MissionWriter::Create(dir_, info, options);
+    RobotWriter alpha = mission.OpenRobot("alpha");
+    alpha.WritePing(ping);
+    alpha.Close();
+    mission.Close();
+    const std::string bytes = ReadFile(Alpha("sonar.drs"));
+    const std::size_t at = RecordOffsets(bytes).at(0) + 12 + 38;  // the ping's step (u16)
+    const int stored =
+        static_cast<std::uint8_t>(bytes[at]) | (static_cast<std::uint8_t>(bytes[at + 1]) << 8);
+    EXPECT_EQ(stored, step > 1 ? step : 0);
+    const auto records = ReadAll(dir_, "alpha");
+    ASSERT_EQ(records.size(), 1u);
+    const auto& read = std::get<msgs::SonarPing>(records[0]).intensity;
+    ASSERT_EQ(read.size(), ping.intensity.size());
+    for (std::size_t i = 0; i < read.size(); ++i) {
+      const int v = ping.intensity[i];
+      ASSERT_EQ(read[i], std::min(255, step * (v / step) + step / 2)) << i;
+      if (step > 1) {
+        ASSERT_LE(std::abs(read[i] - v), step / 2) << i;
+      }
+    }
+    const std::uintmax_t size = fs::file_size(Alpha("sonar.drs"));
+    if (step == 1) {
+      exact_size = size;
+    } else {
+      EXPECT_LT(size, exact_size);
+    }
+  }
+}
+
+TEST_F(RecordingTest, WriterRefusesQuantizationStepsOutsideOneTo128) {
+  MissionInfo info = TwoRobotMission();
+  for (const int step : {0, -1, 129}) {
+    WriterOptions options;
+    options.ping_quantization_step = step;
+    EXPECT_THROW(MissionWriter::Create(dir_, info, options), std::invalid_argument) << step;
+  }
+  WriterOptions options;
+  options.ping_quantization_step = 128;
+  EXPECT_NO_THROW(MissionWriter::Create(dir_, info, options));
+}
+
 TEST_F(RecordingTest, EqualTimesComeOutInFixedStreamOrder) {
   MissionInfo info = TwoRobotMission();
   info.robots.resize(1);
@@ -787,6 +839,15 @@ TEST_F(DamagedMissionTest, SonarFirstPingWithoutBearings) {
   FixCrc(bytes, at);
   WriteFileBytes(Alpha("sonar.drs"), bytes);
   ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "first ping must carry one"});
+}
+
+TEST_F(DamagedMissionTest, SonarImplausibleQuantizationStep) {
+  std::string bytes = ReadFile(Alpha("sonar.drs"));
+  const std::size_t at = RecordOffsets(bytes)[0];
+  bytes[at + 12 + 38] = static_cast<char>(200);  // step 200: beyond 128
+  FixCrc(bytes, at);
+  WriteFileBytes(Alpha("sonar.drs"), bytes);
+  ExpectError(ReadError(), {"alpha/sonar.drs", "record 0", "quantization step 200"});
 }
 
 TEST_F(DamagedMissionTest, SonarUndecodableImage) {

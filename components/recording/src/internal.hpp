@@ -48,6 +48,7 @@ inline constexpr std::uint64_t kMaxImageCells = 64ull << 20;
 // holds zstd images to the same bound, and the writer stores a ping whose zstd frame would be
 // smaller with encoding 2 instead (docs/recording-format.md section 4).
 inline constexpr std::uint64_t kMaxDeflateRatio = 1032;
+inline constexpr int kMaxQuantizationStep = 128;  // WriterOptions::ping_quantization_step
 
 std::uint32_t Crc32(const std::uint8_t* data, std::size_t size, std::uint32_t crc = 0);
 
@@ -105,6 +106,7 @@ class PingEncoder {
   struct Zstd;
   WriterOptions options_;
   std::unique_ptr<Zstd> zstd_;
+  std::vector<std::uint8_t> quantized_;  // the image after ping_quantization_step
 };
 
 // "" when options are valid, else a description of the first problem.
