@@ -364,7 +364,7 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-pictures", no_pictures, "skip the PNG pictures");
   app.add_option("--ping-quantization-step", ping_quantization_step,
-                 "store each ping intensity v as Q*floor(v/Q)+floor(Q/2) (lossy, smaller files; "
+                 "store each ping intensity as its nearest multiple of Q (lossy, smaller files; "
                  "docs/recording-format.md); default 1: exact")
       ->check(CLI::Range(1, 128));
   app.add_flag("--no-sonar", no_sonar,

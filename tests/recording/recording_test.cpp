@@ -415,11 +415,13 @@ TEST_F(RecordingTest, WriterRefusesCompressionLevelsOutsideTheCodecsRange) {
   EXPECT_NO_THROW(MissionWriter::Create(dir_, info, {ImageCompression::kRaw, 0}));
 }
 
-TEST_F(RecordingTest, QuantizedPingsReadBackAsTheStepsMidpointsAndAreSmaller) {
+TEST_F(RecordingTest, QuantizedPingsReadBackAsTheNearestMultipleOfTheStepAndAreSmaller) {
   MissionInfo info = TwoRobotMission();
   info.robots.resize(1);
   std::mt19937 rng(7);
-  const msgs::SonarPing ping = MakePing(1.0, 1, 256, 128, rng);
+  msgs::SonarPing ping = MakePing(1.0, 1, 256, 128, rng);
+  std::fill(ping.intensity.begin(), ping.intensity.begin() + 100, 0);  // no return: stays 0
+  std::fill(ping.intensity.begin() + 100, ping.intensity.begin() + 110, 255);
   std::uintmax_t exact_size = 0;
   for (const int step : {1, 8, 16}) {
     SCOPED_TRACE(step);
@@ -441,9 +443,12 @@ TEST_F(RecordingTest, QuantizedPingsReadBackAsTheStepsMidpointsAndAreSmaller) {
     ASSERT_EQ(read.size(), ping.intensity.size());
     for (std::size_t i = 0; i < read.size(); ++i) {
       const int v = ping.intensity[i];
-      ASSERT_EQ(read[i], std::min(255, step * (v / step) + step / 2)) << i;
+      ASSERT_EQ(read[i], std::min(255, step * ((v + step / 2) / step))) << i;
       if (step > 1) {
         ASSERT_LE(std::abs(read[i] - v), step / 2) << i;
+      }
+      if (v == 0) {
+        ASSERT_EQ(read[i], 0) << i;
       }
     }
     const std::uintmax_t size = fs::file_size(Alpha("sonar.drs"));

@@ -240,7 +240,7 @@ void PingEncoder::EncodePingRecord(const msgs::SonarPing& ping, bool include_bea
     quantized_.resize(ping.intensity.size());
     for (std::size_t i = 0; i < ping.intensity.size(); ++i) {
       quantized_[i] =
-          static_cast<std::uint8_t>(std::min(255, step * (ping.intensity[i] / step) + step / 2));
+          static_cast<std::uint8_t>(std::min(255, step * ((ping.intensity[i] + step / 2) / step)));
     }
   }
   const std::vector<std::uint8_t>& intensity = step > 1 ? quantized_ : ping.intensity;

@@ -116,10 +116,11 @@ struct WriterOptions {
   // levels are the fastest and store literals uncompressed (speckle then barely shrinks), 0
   // means zstd's default (3). Ignored for kRaw.
   int compression_level = 1;
-  // Lossy option: each intensity v is stored as min(255, Q * floor(v / Q) + floor(Q / 2)),
-  // Q = ping_quantization_step, before the encoding (fewer distinct values: speckle's low bits
-  // are noise, and the entropy coder needs log2(Q) bits less per cell). The step is written in
-  // the ping record (docs/recording-format.md). 1 (default): the exact image; 1..128.
+  // Lossy option: each intensity v is stored as the nearest multiple of Q =
+  // ping_quantization_step, min(255, Q * floor((v + floor(Q / 2)) / Q)), before the encoding:
+  // no return (0) stays 0, and the entropy coder needs about log2(Q) bits less per cell
+  // (speckle's low bits are noise). The step is written in the ping record
+  // (docs/recording-format.md). 1 (default): the exact image; 1..128.
   int ping_quantization_step = 1;
 };
 
