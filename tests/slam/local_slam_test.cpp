@@ -119,6 +119,27 @@ eval::Trajectory Estimates(const LocalSlam& slam, bool dead_reckoning) {
   return t;
 }
 
+// The mission through sequential scan matching and LocalSlam(options): loop counts and ATEs.
+struct MissionRun {
+  int accepted = 0, ambiguous = 0, chain_rejected = 0;
+  double slam_ate_m = 0.0, dr_ate_m = 0.0;
+};
+MissionRun RunMission(const Mission& mission, const LocalSlamOptions& options) {
+  icp::SequentialScanMatcher matcher;
+  LocalSlam slam(options);
+  MissionRun out;
+  for (const auto& kf : mission.keyframes) {
+    const auto factor = matcher.AddKeyframe(kf);
+    const StepResult r = slam.AddKeyframe(kf, factor ? &*factor : nullptr);
+    out.accepted += r.loops_accepted;
+    out.ambiguous += r.loops_ambiguous;
+    out.chain_rejected += r.loops_chain_rejected;
+  }
+  out.dr_ate_m = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
+  out.slam_ate_m = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+  return out;
+}
+
 TEST(LocalSlam, LoopClosuresRemoveDrift) {
   std::mt19937 rng(3);
   const World world = MakeWorld(rng);
@@ -227,24 +248,14 @@ TEST(LocalSlam, AmbiguityTestKeepsTheLoopsOfADistinctiveWorld) {
   const World world = MakeWorld(rng);
   const Mission mission = MakeMission(world, rng);
   for (const bool inflate : {false, true}) {
-    icp::SequentialScanMatcher matcher;
     LocalSlamOptions o;
     o.loop_ambiguity_ratio = 0.9;
     o.loop_ambiguity_inflate = inflate;
-    LocalSlam slam(o);
-    int accepted = 0, ambiguous = 0;
-    for (const auto& kf : mission.keyframes) {
-      const auto factor = matcher.AddKeyframe(kf);
-      const StepResult r = slam.AddKeyframe(kf, factor ? &*factor : nullptr);
-      accepted += r.loops_accepted;
-      ambiguous += r.loops_ambiguous;
-    }
-    const double dr_ate = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
-    const double slam_ate = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+    const MissionRun r = RunMission(mission, o);
     std::printf("ambiguity 0.9 %s: %d loops accepted, %d ambiguous; ATE %.2f m (DR %.2f m)\n",
-                inflate ? "inflate" : "drop", accepted, ambiguous, slam_ate, dr_ate);
-    EXPECT_GT(accepted, 3);
-    EXPECT_LT(slam_ate, 0.3 * dr_ate);
+                inflate ? "inflate" : "drop", r.accepted, r.ambiguous, r.slam_ate_m, r.dr_ate_m);
+    EXPECT_GT(r.accepted, 3);
+    EXPECT_LT(r.slam_ate_m, 0.3 * r.dr_ate_m);
   }
 }
 
@@ -273,27 +284,17 @@ TEST(LocalSlam, ChainTestKeepsLoopsAnHonestChainExplains) {
   const World world = MakeWorld(rng);
   const Mission mission = MakeMission(world, rng);
   for (const double chi2 : {11.34, 1e-6}) {
-    icp::SequentialScanMatcher matcher;
     LocalSlamOptions o;
     o.loop_chain_chi2 = chi2;
-    LocalSlam slam(o);
-    int accepted = 0, refused = 0;
-    for (const auto& kf : mission.keyframes) {
-      const auto factor = matcher.AddKeyframe(kf);
-      const StepResult r = slam.AddKeyframe(kf, factor ? &*factor : nullptr);
-      accepted += r.loops_accepted;
-      refused += r.loops_chain_rejected;
-    }
-    const double dr_ate = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
-    const double slam_ate = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
+    const MissionRun r = RunMission(mission, o);
     std::printf("chain chi2 %g: %d loops accepted, %d refused; ATE %.2f m (DR %.2f m)\n", chi2,
-                accepted, refused, slam_ate, dr_ate);
+                r.accepted, r.chain_rejected, r.slam_ate_m, r.dr_ate_m);
     if (chi2 > 1.0) {
-      EXPECT_GT(accepted, 3);
-      EXPECT_LT(slam_ate, 0.3 * dr_ate);
+      EXPECT_GT(r.accepted, 3);
+      EXPECT_LT(r.slam_ate_m, 0.3 * r.dr_ate_m);
     } else {
-      EXPECT_EQ(accepted, 0);
-      EXPECT_GT(refused, 3);
+      EXPECT_EQ(r.accepted, 0);
+      EXPECT_GT(r.chain_rejected, 3);
     }
   }
 }
