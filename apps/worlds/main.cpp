@@ -263,6 +263,10 @@ int main(int argc, char** argv) {
   app.add_option("--style", style, "generator style YAML (default: the generator's)");
   app.add_option("--robots", robots, "robots per generated mission (default: the style's)");
   app.add_option("--duration-s", duration_s, "cap each robot's mission (draco-sim)");
+  int ping_quantization_step = 1;
+  app.add_option("--ping-quantization-step", ping_quantization_step,
+                 "record generated missions with lossy pings (draco-sim; default 1: exact)")
+      ->check(CLI::Range(1, 128));
   app.add_option("--set", overrides, "component.param=value for every robot (draco-fleet)");
   app.add_flag("--keep-missions", keep, "keep the recordings (1-3 GB each)");
   app.add_flag("--judge", judge_only,
@@ -356,6 +360,10 @@ int main(int argc, char** argv) {
           std::vector<std::string> args{sim, scenario + "/mission.yaml", "--out", mission_dir,
                                         "--no-pictures"};
           if (duration_s > 0) args.insert(args.end(), {"--duration-s", std::to_string(duration_s)});
+          if (ping_quantization_step > 1) {
+            args.insert(args.end(),
+                        {"--ping-quantization-step", std::to_string(ping_quantization_step)});
+          }
           if (RunAndWait(args, log) != 0) w.status = "simulation failed";
         }
       }
