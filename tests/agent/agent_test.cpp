@@ -833,6 +833,7 @@ TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.placement_heading_weight = weight;
+    o.placement_heading_variance_ratio = 0.0;  // weight 0: no turn at all
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
     const TeammateOne mate(&stage);
@@ -858,6 +859,42 @@ TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
     const Pose2 a = reg::Compose(T, centroid), b = reg::Compose(mate.T_0_1, centroid);
     EXPECT_NEAR(a.x_m, b.x_m, 1e-3) << weight;
     EXPECT_NEAR(a.y_m, b.y_m, 1e-3) << weight;
+  }
+}
+
+// placement_heading_variance_ratio: the turn's fraction is u / (u + ratio), u the parts of
+// the two missions (keyframe times 0-7 s each) that the loops' keyframes do not span. Loops
+// over own keyframes 1-5 and teammate keyframes 2-6 leave 3/7 of each: u = 6/7, with ratio 2
+// the fraction is 0.3 and the yaw 0.3 + 0.3 * 0.1. Loops from the first keyframes to the
+// last span both missions: no turn.
+TEST(OptimizerStage, TurnsAPlacedTeammateTowardTheHeadingsAsFarAsItsLoopsLeaveTheMissions) {
+  const std::vector<std::pair<int, int>> partial{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+  const std::vector<std::pair<int, int>> whole{{0, 0}, {2, 3}, {4, 5}, {7, 7}, {0, 3}};
+  for (const auto& [pairs, expected_fraction] : {std::pair{partial, 0.3}, std::pair{whole, 0.0}}) {
+    OptimizerStageOptions o;
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.placement_heading_variance_ratio = 2.0;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    const TeammateOne mate(&stage);
+    msgs::ObjectMap own_map, mate_map;
+    own_map.map_heading_rad = 1.0;
+    mate_map.map_heading_rad = 1.4;
+    stage.OnOwnObjectMap(own_map);
+    msgs::FleetHeader header;
+    header.robot_id = 1;
+    header.incarnation = 1;
+    stage.OnTeammateObjectMap(header, mate_map);
+    std::vector<msgs::InterRobotLoop> loops;
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+    EXPECT_NEAR(stage.estimate().T_own_teammate.at(1).yaw_rad,
+                mate.T_0_1.yaw_rad + expected_fraction * 0.1, 1e-4)
+        << expected_fraction;
   }
 }
 

@@ -205,13 +205,48 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   cx /= n;
   cy /= n;
   const double turn =
-      options_.placement_heading_weight * std::remainder(*prior - T->yaw_rad, 2.0 * M_PI);
+      HeadingTurnFraction(robot, problem) * std::remainder(*prior - T->yaw_rad, 2.0 * M_PI);
   const double c = std::cos(turn), sn = std::sin(turn);
   for (auto& p : *poses) {
     const double dx = p.x_m - cx, dy = p.y_m - cy;
     p = {cx + c * dx - sn * dy, cy + sn * dx + c * dy,
          std::remainder(p.yaw_rad + turn, 2.0 * M_PI)};
   }
+}
+
+double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& problem) const {
+  if (options_.placement_heading_weight > 0.0) return options_.placement_heading_weight;
+  const double ratio = options_.placement_heading_variance_ratio;
+  const auto* held = poses_.Find(robot);
+  if (!(ratio > 0.0) || held == nullptr) return 0.0;
+  // Time spans: [lo, hi] of the keyframes the loops name, [first, last] of all so far.
+  struct Span {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    void Add(double t) {
+      lo = std::min(lo, t);
+      hi = std::max(hi, t);
+    }
+    double Length() const { return hi > lo ? hi - lo : 0.0; }
+  };
+  Span own_all, own_loops, mate_all, mate_loops;
+  for (const auto& [k, e] : own_.entries()) own_all.Add(e.time_s);
+  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+    if (held->known[k]) mate_all.Add(held->keyframes[k].time_s);
+  }
+  for (const auto& l : problem.loops) {
+    if (l.teammate_robot != robot) continue;
+    const auto own = own_.entries().find(l.own_keyframe);
+    if (own != own_.entries().end()) own_loops.Add(own->second.time_s);
+    if (l.teammate_keyframe >= 0 && l.teammate_keyframe < static_cast<int>(held->known.size()) &&
+        held->known[static_cast<std::size_t>(l.teammate_keyframe)]) {
+      mate_loops.Add(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].time_s);
+    }
+  }
+  const auto unspanned = [](const Span& loops, const Span& all) {
+    return all.Length() > 0.0 ? 1.0 - std::min(1.0, loops.Length() / all.Length()) : 1.0;
+  };
+  const double u = unspanned(own_loops, own_all) + unspanned(mate_loops, mate_all);
+  return u / (u + ratio);
 }
 
 std::optional<MapCheck> OptimizerStage::CheckMaps(
@@ -503,7 +538,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
     }
   }
-  if (solved && options_.placement_heading_weight > 0.0) {
+  if (solved && (options_.placement_heading_weight > 0.0 ||
+                 options_.placement_heading_variance_ratio > 0.0)) {
     for (auto& [robot, poses] : placed) {
       if (robot != own_id) TurnTowardHeadings(robot, problem, &poses);
     }

@@ -654,6 +654,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "(0: off)",
                 .min = 0.0,
                 .max = 1.0});
+    spec.Param("placement_heading_variance_ratio", &o_.placement_heading_variance_ratio,
+               {.doc = "with placement_heading_weight 0: turn by u / (u + this), u = the "
+                       "fractions of the two missions so far the loops' keyframes do not span "
+                       "(0: off)",
+                .min = 0.0});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

@@ -466,6 +466,14 @@ struct OptimizerStageOptions {
   // the headings (map_heading_from_keyframes) measure the whole-mission rotation, with the
   // AHRS's errors.
   double placement_heading_weight = 0.0;
+  // With placement_heading_weight 0, the fraction follows how much of the two missions the
+  // loops span: u / (u + placement_heading_variance_ratio), u = (1 - s_own) + (1 - s_mate),
+  // s = the time span of the keyframes the loops name over that of the robot's keyframes so
+  // far. Loops that span both missions fix the whole-mission rotation (no turn); loops at one
+  // instant of each carry both maps' local heading errors there (u = 2). The ratio is the
+  // headings' difference's variance in units of one map's local heading variance (0: off);
+  // 4 from tuning seeds 1-10, the marina and the airplane (docs/safe-merges.md).
+  double placement_heading_variance_ratio = 4.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
@@ -533,6 +541,8 @@ class OptimizerStage {
   // Turns a placed teammate toward the headings' rotation (placement_heading_weight).
   void TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                           std::vector<msgs::Pose2>* poses) const;
+  // The fraction TurnTowardHeadings turns by (placement_heading_weight, or the loops' spans).
+  double HeadingTurnFraction(int robot, const team::TeamProblem& problem) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
                                     const OwnView& own_view) const;
 
