@@ -417,10 +417,12 @@ class ScanExchangeComponent final : public graph::Component {
                {.doc = "... and within this heading difference", .unit = "rad", .min = 0.0});
     spec.Param("max_scans_per_request", &o_.max_scans_per_request,
                {.doc = "scans served per request at most", .min = 0, .max = 256});
-    spec.Param("log_windows", &o_.log_windows,
-               {.doc = "also register at these windows, for evaluation only (Fig. 3)",
-                .min = 0,
-                .max = 20});
+    spec.Param(
+        "log_windows", &o_.log_windows,
+        {.doc = "also register at these windows, for evaluation only (Fig. 3; e.g. [0, 1, 3]; "
+                "default none)",
+         .min = 0,
+         .max = 20});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
