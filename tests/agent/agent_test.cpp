@@ -1596,5 +1596,51 @@ TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {
   EXPECT_EQ(stage.teammates().at(kB).ignored, static_cast<int>(theirs.size()) - 3);
 }
 
+// max_candidates_per_teammate: A's registrations of B's scans over two steps; A holds the
+// first 4 and counts the others; B's restart frees its share.
+TEST(ConsistencyStage, CandidatesHeldPerTeammateAreBounded) {
+  Mission run;
+  Simulate(&run);
+  std::vector<msgs::InterRobotLoop> registered;
+  for (auto l : run.agent_a->consistency().candidates()) {
+    if (l.own_robot != kA) continue;
+    l.id = 0;
+    l.flags = 0;
+    registered.push_back(l);
+  }
+  ASSERT_GE(registered.size(), 7u);
+  auto options = TeamAgent::ConsistencyOptions(Options(kA));
+  options.max_candidates_per_teammate = 4;
+  ConsistencyStage stage(options);
+  const msgs::FleetHeader header = FeedOwnAndTeammatePoses(run, &stage);
+  const msgs::MapMatches& matches = run.agent_a->matcher().matches();
+  const std::vector<msgs::InterRobotLoop> first(registered.begin(), registered.begin() + 3);
+  const std::vector<msgs::InterRobotLoop> rest(registered.begin() + 3, registered.end());
+  msgs::TeamStepStats st;
+  stage.Step(100.0, first, matches, &st);
+  EXPECT_EQ(st.candidates_added, 3);
+  stage.Step(101.0, rest, matches, &st);
+  EXPECT_EQ(st.candidates_added, 1);
+  ASSERT_EQ(stage.candidates().size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) {
+    EXPECT_EQ(stage.candidates()[i].own_keyframe, registered[i].own_keyframe);
+    EXPECT_EQ(stage.candidates()[i].teammate_keyframe, registered[i].teammate_keyframe);
+  }
+  EXPECT_EQ(stage.teammates().at(kB).over_bound, static_cast<int>(registered.size()) - 4);
+  stage.Forget(kB);
+  EXPECT_TRUE(stage.candidates().empty());
+  msgs::KeyframePoses again;
+  again.header = header;
+  again.header.incarnation = header.incarnation + 1;
+  again.full = true;
+  for (const auto& k : run.b.keyframes) {
+    again.poses.push_back(
+        {k.index, k.time_s, k.T_odom_body, static_cast<int>(k.points_body.size())});
+  }
+  stage.OnKeyframePoses(again);
+  stage.Step(102.0, rest, matches, &st);
+  EXPECT_EQ(st.candidates_added, 4);
+}
+
 }  // namespace
 }  // namespace draco::agent

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <utility>
 
 #include "draco/agent/stages.hpp"
@@ -31,6 +32,7 @@ struct ConsistencyStage::Impl {
   std::set<std::uint64_t> received_ids;  // candidates that came from a teammate
   std::set<std::uint64_t> accepted_ids;
   std::set<std::uint64_t> sent_ids;
+  std::map<int, int> held_per_teammate;  // candidates
   std::uint64_t next_loop_id = 0;
   // The accepted set may have changed since the last Step looked for loops to send (every
   // accepted loop not received is sent in the step it is first accepted).
@@ -101,6 +103,7 @@ struct ConsistencyStage::Impl {
         keep.push_back(l);
       }
     }
+    held_per_teammate.erase(robot);
     if (!had) return;
     candidates = std::move(keep);
     filter = std::make_unique<cons::ConsistencyFilter>(options.filter);
@@ -222,6 +225,17 @@ std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
   }
   auto received = a.TakeReceivedLoops();
   fresh.insert(fresh.end(), received.begin(), received.end());
+  // At most max_candidates_per_teammate held per teammate: later ones are dropped (their
+  // keys stay, so the same pair is not taken again).
+  std::erase_if(fresh, [&](const msgs::InterRobotLoop& l) {
+    int& n = a.held_per_teammate[l.teammate_robot];
+    if (n < a.options.max_candidates_per_teammate) {
+      ++n;
+      return false;
+    }
+    if (const auto m = mates_.find(l.teammate_robot); m != mates_.end()) ++m->second.over_bound;
+    return true;
+  });
   st->candidates_added = static_cast<int>(fresh.size());
   if (!fresh.empty()) {
     const auto source = a.BuildPoseSource();

@@ -524,6 +524,9 @@ class ConsistencyFilterComponent final : public graph::Component {
                {.doc = "map-to-map guess sigma in GCM", .unit = "m", .min = 0.0});
     spec.Param("map_sigma_rad", &o_.map_sigma_rad,
                {.doc = "map-to-map guess sigma in GCM", .unit = "rad", .min = 0.0});
+    spec.Param(
+        "max_candidates_per_teammate", &o_.max_candidates_per_teammate,
+        {.doc = "candidates held per teammate; later ones are dropped and counted", .min = 1});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
@@ -553,6 +556,14 @@ class ConsistencyFilterComponent final : public graph::Component {
   }
   Status Stop(Context& ctx) override {
     if (!stage_) return Status::Ok();
+    for (const auto& [robot, mate] : stage_->teammates()) {
+      if (mate.over_bound > 0) {
+        ctx.Log(log::Level::kWarn,
+                "robot " + std::to_string(robot) + ": " + std::to_string(mate.over_bound) +
+                    " candidate loops dropped beyond max_candidates_per_teammate (" +
+                    std::to_string(o_.max_candidates_per_teammate) + ")");
+      }
+    }
     std::string loops =
         "id,own_robot,own_keyframe,teammate_robot,teammate_keyframe,x_m,y_m,yaw_rad,overlap,"
         "accepted\n";

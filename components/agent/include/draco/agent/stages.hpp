@@ -345,6 +345,13 @@ struct ConsistencyStageOptions {
   // Loops a teammate may hand us over a mission (a mission gives tens); beyond, its loops are
   // ignored and counted, so a faulty teammate cannot grow the filter's problem without end.
   int max_received_loops_per_teammate = 2000;
+  // Candidates held per teammate (registered here and received), the bound on what one
+  // teammate adds to the filter: about 0.9 kB per candidate plus one bit per pair of
+  // candidates of all teammates (GCM's consistency graph), so at the bound with T teammates
+  // 8192 T x 0.9 kB + (8192 T)^2 / 8 bytes (T = 2: 15 MB + 34 MB). Beyond it the teammate's
+  // new candidates are dropped and counted (Teammate::over_bound); the accepted set stays
+  // and still places it. The marina repeated for 120 min holds at most 4,975 per teammate.
+  int max_candidates_per_teammate = 8192;
 };
 
 class ConsistencyStage {
@@ -354,7 +361,8 @@ class ConsistencyStage {
     int loops_taken = 0;                         // received loops entered into the filter
     int candidates = 0;
     int accepted = 0;
-    int ignored = 0;  // received loops naming unknown keyframes, broken, or not ours
+    int ignored = 0;     // received loops naming unknown keyframes, broken, or not ours
+    int over_bound = 0;  // candidates dropped at max_candidates_per_teammate
   };
   explicit ConsistencyStage(const ConsistencyStageOptions& options);
   ~ConsistencyStage();
