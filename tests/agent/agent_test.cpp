@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <set>
 #include <vector>
@@ -824,39 +825,48 @@ struct TeammateOne {
   }
 };
 
-// placement_heading_weight: loops place teammate 1 at T_0_1 (yaw 0.3); the maps' absolute
-// headings say the rotation is 0.4. Half way: yaw 0.35, turned about the centroid of the
-// teammate keyframes the loops name, which stays where the loops put it.
+// Teammate 1 placed by loops (own keyframe, teammate keyframe) at T_0_1 (yaw 0.3), the maps'
+// absolute headings saying the rotation is 0.4; nullopt when it is not placed.
+std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
+                                       const std::vector<std::pair<int, int>>& pairs,
+                                       Pose2* T_0_1) {
+  o.robot_id = 0;
+  o.optimize_period_s = 0.0;
+  OptimizerStage stage(o);
+  const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+  const TeammateOne mate(&stage);
+  *T_0_1 = mate.T_0_1;
+  msgs::ObjectMap own_map, mate_map;
+  own_map.map_heading_rad = 1.0;
+  mate_map.map_heading_rad = 1.4;
+  stage.OnOwnObjectMap(own_map);
+  msgs::FleetHeader header;
+  header.robot_id = 1;
+  header.incarnation = 1;
+  stage.OnTeammateObjectMap(header, mate_map);
+  std::vector<msgs::InterRobotLoop> loops;
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+  msgs::TeamStepStats st;
+  stage.Step(20.0, loops, mate.matches, &st);
+  if (!stage.estimate().trajectories.count(1)) return std::nullopt;
+  return stage.estimate().T_own_teammate.at(1);
+}
+
+// placement_heading_weight: half way toward the headings, yaw 0.35, turned about the centroid
+// of the teammate keyframes the loops name, which stays where the loops put it.
 TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
   for (const double weight : {0.0, 0.5}) {
     OptimizerStageOptions o;
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
     o.placement_heading_weight = weight;
     o.placement_heading_variance_ratio = 0.0;  // weight 0: no turn at all
-    OptimizerStage stage(o);
-    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
-    const TeammateOne mate(&stage);
-    msgs::ObjectMap own_map, mate_map;
-    own_map.map_heading_rad = 1.0;
-    mate_map.map_heading_rad = 1.4;
-    stage.OnOwnObjectMap(own_map);
-    msgs::FleetHeader header;
-    header.robot_id = 1;
-    header.incarnation = 1;
-    stage.OnTeammateObjectMap(header, mate_map);
-    std::vector<msgs::InterRobotLoop> loops;
-    const std::vector<std::pair<int, int>> pairs{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
-    msgs::TeamStepStats st;
-    stage.Step(20.0, loops, mate.matches, &st);
-    ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
-    const Pose2 T = stage.estimate().T_own_teammate.at(1);
-    EXPECT_NEAR(T.yaw_rad, mate.T_0_1.yaw_rad + weight * 0.1, 1e-4) << weight;
+    Pose2 T_0_1;
+    const auto T = PlaceWithHeadings(o, {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}}, &T_0_1);
+    ASSERT_TRUE(T.has_value());
+    EXPECT_NEAR(T->yaw_rad, T_0_1.yaw_rad + weight * 0.1, 1e-4) << weight;
     // The loops' teammate keyframes 2, 4, 6, 4, 6: centroid (0, 8.8) in the teammate's map.
     const Pose2 centroid{0.0, 8.8, 0.0};
-    const Pose2 a = reg::Compose(T, centroid), b = reg::Compose(mate.T_0_1, centroid);
+    const Pose2 a = reg::Compose(*T, centroid), b = reg::Compose(T_0_1, centroid);
     EXPECT_NEAR(a.x_m, b.x_m, 1e-3) << weight;
     EXPECT_NEAR(a.y_m, b.y_m, 1e-3) << weight;
   }
@@ -872,29 +882,11 @@ TEST(OptimizerStage, TurnsAPlacedTeammateTowardTheHeadingsAsFarAsItsLoopsLeaveTh
   const std::vector<std::pair<int, int>> whole{{0, 0}, {2, 3}, {4, 5}, {7, 7}, {0, 3}};
   for (const auto& [pairs, expected_fraction] : {std::pair{partial, 0.3}, std::pair{whole, 0.0}}) {
     OptimizerStageOptions o;
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
     o.placement_heading_variance_ratio = 2.0;
-    OptimizerStage stage(o);
-    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
-    const TeammateOne mate(&stage);
-    msgs::ObjectMap own_map, mate_map;
-    own_map.map_heading_rad = 1.0;
-    mate_map.map_heading_rad = 1.4;
-    stage.OnOwnObjectMap(own_map);
-    msgs::FleetHeader header;
-    header.robot_id = 1;
-    header.incarnation = 1;
-    stage.OnTeammateObjectMap(header, mate_map);
-    std::vector<msgs::InterRobotLoop> loops;
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
-    msgs::TeamStepStats st;
-    stage.Step(20.0, loops, mate.matches, &st);
-    ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
-    EXPECT_NEAR(stage.estimate().T_own_teammate.at(1).yaw_rad,
-                mate.T_0_1.yaw_rad + expected_fraction * 0.1, 1e-4)
-        << expected_fraction;
+    Pose2 T_0_1;
+    const auto T = PlaceWithHeadings(o, pairs, &T_0_1);
+    ASSERT_TRUE(T.has_value());
+    EXPECT_NEAR(T->yaw_rad, T_0_1.yaw_rad + expected_fraction * 0.1, 1e-4) << expected_fraction;
   }
 }
 
