@@ -182,6 +182,8 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   if (map == teammate_objects_.end() || held == nullptr) return;
   const auto prior = objects::HeadingYawPrior(own_objects_, map->second.map);
   if (!prior) return;
+  const double fraction = HeadingTurnFraction(robot, problem);
+  if (!(fraction > 0.0)) return;
   std::vector<Pose2> local, moved;
   for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {
     if (!held->known[k]) continue;
@@ -204,8 +206,7 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   if (n == 0) return;
   cx /= n;
   cy /= n;
-  const double turn =
-      HeadingTurnFraction(robot, problem) * std::remainder(*prior - T->yaw_rad, 2.0 * M_PI);
+  const double turn = fraction * std::remainder(*prior - T->yaw_rad, 2.0 * M_PI);
   const double c = std::cos(turn), sn = std::sin(turn);
   for (auto& p : *poses) {
     const double dx = p.x_m - cx, dy = p.y_m - cy;
@@ -538,8 +539,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       it = it->first != own_id && !verified.count(it->first) ? placed.erase(it) : std::next(it);
     }
   }
-  if (solved && (options_.placement_heading_weight > 0.0 ||
-                 options_.placement_heading_variance_ratio > 0.0)) {
+  if (solved) {  // each teammate turned by HeadingTurnFraction (0: not at all)
     for (auto& [robot, poses] : placed) {
       if (robot != own_id) TurnTowardHeadings(robot, problem, &poses);
     }

@@ -549,7 +549,7 @@ class OptimizerStage {
     objects::PointCounts points;
   };
   const OwnView& UpdateOwnView();
-  // Turns a placed teammate toward the headings' rotation (placement_heading_weight).
+  // Turns a placed teammate toward the headings' rotation by HeadingTurnFraction.
   void TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                           std::vector<msgs::Pose2>* poses) const;
   // The fraction TurnTowardHeadings turns by (placement_heading_weight, or the loops' spans).
