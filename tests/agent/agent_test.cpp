@@ -827,9 +827,10 @@ struct TeammateOne {
 
 // Teammate 1 placed by loops (own keyframe, teammate keyframe) at T_0_1 (yaw 0.3), the maps'
 // absolute headings saying the rotation is 0.4; nullopt when it is not placed.
+// lever_m (optional): the step's rotation lever for it, -1 when not computed.
 std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
-                                       const std::vector<std::pair<int, int>>& pairs,
-                                       Pose2* T_0_1) {
+                                       const std::vector<std::pair<int, int>>& pairs, Pose2* T_0_1,
+                                       double* lever_m = nullptr) {
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   OptimizerStage stage(o);
@@ -849,6 +850,10 @@ std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
     loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
   msgs::TeamStepStats st;
   stage.Step(20.0, loops, mate.matches, &st);
+  if (lever_m != nullptr) {
+    const auto& levers = stage.estimate().rotation_lever_m;
+    *lever_m = levers.count(1) ? levers.at(1) : -1.0;
+  }
   if (!stage.estimate().trajectories.count(1)) return std::nullopt;
   return stage.estimate().T_own_teammate.at(1);
 }
@@ -887,6 +892,34 @@ TEST(OptimizerStage, TurnsAPlacedTeammateTowardTheHeadingsAsFarAsItsLoopsLeaveTh
     const auto T = PlaceWithHeadings(o, pairs, &T_0_1);
     ASSERT_TRUE(T.has_value());
     EXPECT_NEAR(T->yaw_rad, T_0_1.yaw_rad + expected_fraction * 0.1, 1e-4) << expected_fraction;
+  }
+}
+
+// max_rotation_lever_m: the teammate's keyframes (0, 2k), k = 0..7, lie at an RMS distance
+// L = sqrt(21 + 1.8^2) = 4.9234 m from the loops' teammate-keyframe centroid (0, 8.8); with
+// u = 6/7 and ratio 2 the rotation's sigma is sqrt(u 2 / (u + 2)) = sqrt(0.6) of one map's,
+// the lever 3.8136 m; without the headings' variance model (ratio 0) sqrt(u): 4.5582 m. Loops
+// that span both missions (u = 0) leave no lever.
+TEST(OptimizerStage, WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops) {
+  const std::vector<std::pair<int, int>> partial{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
+  const std::vector<std::pair<int, int>> whole{{0, 0}, {2, 3}, {4, 5}, {7, 7}, {0, 3}};
+  struct Case {
+    std::vector<std::pair<int, int>> pairs;
+    double ratio, max_lever_m, lever_m;
+    bool placed;
+  };
+  for (const auto& c :
+       {Case{partial, 2.0, 3.7, 3.8136, false}, Case{partial, 2.0, 3.9, 3.8136, true},
+        Case{partial, 0.0, 4.5, 4.5582, false}, Case{partial, 0.0, 0.0, 4.5582, true},
+        Case{whole, 2.0, 0.1, 0.0, true}}) {
+    OptimizerStageOptions o;
+    o.placement_heading_variance_ratio = c.ratio;
+    o.max_rotation_lever_m = c.max_lever_m;
+    Pose2 T_0_1;
+    double lever_m = -1.0;
+    const auto T = PlaceWithHeadings(o, c.pairs, &T_0_1, &lever_m);
+    EXPECT_NEAR(lever_m, c.lever_m, 1e-3) << c.ratio << " " << c.max_lever_m;
+    EXPECT_EQ(T.has_value(), c.placed) << c.ratio << " " << c.max_lever_m;
   }
 }
 

@@ -218,8 +218,18 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
 double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& problem) const {
   if (options_.placement_heading_weight > 0.0) return options_.placement_heading_weight;
   const double ratio = options_.placement_heading_variance_ratio;
+  if (!(ratio > 0.0) || poses_.Find(robot) == nullptr) return 0.0;
+  std::vector<std::pair<int, int>> keyframes;
+  for (const auto& l : problem.loops) {
+    if (l.teammate_robot == robot) keyframes.emplace_back(l.own_keyframe, l.teammate_keyframe);
+  }
+  const double u = Unspanned(robot, keyframes);
+  return u / (u + ratio);
+}
+
+double OptimizerStage::Unspanned(int robot,
+                                 const std::vector<std::pair<int, int>>& own_mate_keyframes) const {
   const auto* held = poses_.Find(robot);
-  if (!(ratio > 0.0) || held == nullptr) return 0.0;
   // Time spans: [lo, hi] of the keyframes the loops name, [first, last] of all so far.
   struct Span {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
@@ -231,23 +241,65 @@ double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& p
   };
   Span own_all, own_loops, mate_all, mate_loops;
   for (const auto& [k, e] : own_.entries()) own_all.Add(e.time_s);
-  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
-    if (held->known[k]) mate_all.Add(held->keyframes[k].time_s);
+  if (held != nullptr) {
+    for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+      if (held->known[k]) mate_all.Add(held->keyframes[k].time_s);
+    }
   }
-  for (const auto& l : problem.loops) {
-    if (l.teammate_robot != robot) continue;
-    const auto own = own_.entries().find(l.own_keyframe);
+  for (const auto& [own_kf, mate_kf] : own_mate_keyframes) {
+    const auto own = own_.entries().find(own_kf);
     if (own != own_.entries().end()) own_loops.Add(own->second.time_s);
-    if (l.teammate_keyframe >= 0 && l.teammate_keyframe < static_cast<int>(held->known.size()) &&
-        held->known[static_cast<std::size_t>(l.teammate_keyframe)]) {
-      mate_loops.Add(held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].time_s);
+    if (held != nullptr && mate_kf >= 0 && mate_kf < static_cast<int>(held->known.size()) &&
+        held->known[static_cast<std::size_t>(mate_kf)]) {
+      mate_loops.Add(held->keyframes[static_cast<std::size_t>(mate_kf)].time_s);
     }
   }
   const auto unspanned = [](const Span& loops, const Span& all) {
     return all.Length() > 0.0 ? 1.0 - std::min(1.0, loops.Length() / all.Length()) : 1.0;
   };
-  const double u = unspanned(own_loops, own_all) + unspanned(mate_loops, mate_all);
-  return u / (u + ratio);
+  return unspanned(own_loops, own_all) + unspanned(mate_loops, mate_all);
+}
+
+double OptimizerStage::RotationLever(int robot,
+                                     const std::vector<msgs::InterRobotLoop>& candidates) const {
+  const auto* held = poses_.Find(robot);
+  if (held == nullptr) return 0.0;
+  const auto known = [&](int k) {
+    return k >= 0 && k < static_cast<int>(held->known.size()) &&
+           held->known[static_cast<std::size_t>(k)];
+  };
+  // The centroid of the teammate keyframes the accepted loops name (in the teammate's map).
+  std::vector<std::pair<int, int>> keyframes;
+  double cx = 0.0, cy = 0.0;
+  int n = 0;
+  for (const auto& l : candidates) {
+    if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot != robot) continue;
+    keyframes.emplace_back(l.own_keyframe, l.teammate_keyframe);
+    if (!known(l.teammate_keyframe)) continue;
+    const auto& T = held->keyframes[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf;
+    cx += T.x_m;
+    cy += T.y_m;
+    ++n;
+  }
+  if (n == 0) return 0.0;
+  cx /= n;
+  cy /= n;
+  double sum_m2 = 0.0;
+  int m = 0;
+  for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+    if (!held->known[k]) continue;
+    const auto& T = held->keyframes[k].T_map_kf;
+    sum_m2 += (T.x_m - cx) * (T.x_m - cx) + (T.y_m - cy) * (T.y_m - cy);
+    ++m;
+  }
+  const double lever_m = std::sqrt(sum_m2 / m);
+  const double u = Unspanned(robot, keyframes);
+  const double ratio = options_.placement_heading_variance_ratio;
+  const auto map = teammate_objects_.find(robot);
+  const bool headings = options_.placement_heading_weight <= 0.0 && ratio > 0.0 &&
+                        map != teammate_objects_.end() &&
+                        objects::HeadingYawPrior(own_objects_, map->second.map).has_value();
+  return lever_m * std::sqrt(headings ? u * ratio / (u + ratio) : u);
 }
 
 std::optional<MapCheck> OptimizerStage::CheckMaps(
@@ -346,6 +398,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       e.mate_kfs.insert(l.teammate_keyframe);
     }
     estimate_.map_checks.clear();
+    estimate_.rotation_lever_m.clear();
     for (const auto& [robot, e] : evidence) {
       if (e.loops < options_.min_teammate_loops ||
           static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
@@ -359,6 +412,9 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
           if (check->contradicted) continue;
         }
       }
+      const double lever_m = RotationLever(robot, candidates);
+      estimate_.rotation_lever_m[robot] = lever_m;
+      if (options_.max_rotation_lever_m > 0.0 && lever_m > options_.max_rotation_lever_m) continue;
       loop_verified.insert(robot);
     }
   }
@@ -547,6 +603,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   TeamEstimate next;
   next.time_s = now_s;
   next.map_checks = std::move(estimate_.map_checks);
+  next.rotation_lever_m = std::move(estimate_.rotation_lever_m);
   next.loops_in_pgo = static_cast<int>(problem.loops.size());
   // Trajectories with real keyframes only; map-to-map estimates.
   for (const auto& [robot, poses] : placed) {

@@ -672,6 +672,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "fractions of the two missions so far the loops' keyframes do not span "
                        "(0: off)",
                 .min = 0.0});
+    spec.Param("max_rotation_lever_m", &o_.max_rotation_lever_m,
+               {.doc = "no placement while the teammate's keyframes reach further than this "
+                       "from its loops' keyframes, weighted by the rotation the loops and "
+                       "headings leave uncertain: L sqrt(u R / (u + R)) (<= 0: off)",
+                .unit = "m"});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "
@@ -794,8 +799,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
         continue;
       placed_[id] = T;
       const auto [expected, misses] = Agreement(id);
-      std::snprintf(line, sizeof line, "%.3f,%s,1,%.4f,%.4f,%.6f,%d,%d\n", est.time_s,
-                    Name(id).c_str(), T.x_m, T.y_m, T.yaw_rad, expected, misses);
+      std::snprintf(line, sizeof line, "%.3f,%s,1,%.4f,%.4f,%.6f,%d,%d,%.2f\n", est.time_s,
+                    Name(id).c_str(), T.x_m, T.y_m, T.yaw_rad, expected, misses, Lever(id));
       placements_ += line;
     }
     for (auto it = placed_.begin(); it != placed_.end();) {
@@ -804,8 +809,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
         continue;
       }
       const auto [expected, misses] = Agreement(it->first);
-      std::snprintf(line, sizeof line, "%.3f,%s,0,0,0,0,%d,%d\n", est.time_s,
-                    Name(it->first).c_str(), expected, misses);
+      std::snprintf(line, sizeof line, "%.3f,%s,0,0,0,0,%d,%d,%.2f\n", est.time_s,
+                    Name(it->first).c_str(), expected, misses, Lever(it->first));
       placements_ += line;
       it = placed_.erase(it);
     }
@@ -817,6 +822,13 @@ class TwoStepOptimizerComponent final : public graph::Component {
     const auto it = m.find(id);
     return it == m.end() ? std::pair{-1, -1}
                          : std::pair{it->second.support.expected, it->second.support.Misses()};
+  }
+
+  // The rotation lever of this step for a teammate (-1: not computed).
+  double Lever(int id) const {
+    const auto& m = stage_->estimate().rotation_lever_m;
+    const auto it = m.find(id);
+    return it == m.end() ? -1.0 : it->second;
   }
 
   // A row per change of a teammate's map-level check (counts or verdict).
@@ -850,7 +862,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::unique_ptr<OptimizerStage> stage_;
   std::vector<msgs::TeamStepStats> steps_;
   std::map<int, msgs::Pose2> placed_;  // teammates placed after the last step
-  std::string placements_ = "time_s,teammate,placed,x_m,y_m,yaw_rad,map_expected,map_misses\n";
+  std::string placements_ =
+      "time_s,teammate,placed,x_m,y_m,yaw_rad,map_expected,map_misses,rotation_lever_m\n";
   std::map<int, std::tuple<int, int, int, int, int, int, bool>> checked_;  // last logged
   std::string map_checks_ =
       "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_on_own_points,"

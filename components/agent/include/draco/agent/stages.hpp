@@ -485,6 +485,13 @@ struct OptimizerStageOptions {
   // headings' difference's variance in units of one map's local heading variance (0: off);
   // 4 from tuning seeds 1-10, the marina and the airplane (docs/safe-merges.md).
   double placement_heading_variance_ratio = 4.0;
+  // A teammate whose map reaches far from where its loops hold it waits: its rotation is
+  // uncertain by about sigma sqrt(u R / (u + R)) (sigma one map's local heading error, R the
+  // ratio above; sqrt(u) without both headings or with the ratio 0), and that rotation moves
+  // its keyframes by their distance from the loops' teammate-keyframe centroid. The lever
+  // L sqrt(u R / (u + R)), L the RMS of that distance over the teammate's keyframes so far,
+  // must not exceed this (<= 0: off); a teammate beyond it is not placed, or is withdrawn.
+  double max_rotation_lever_m = 0.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
@@ -506,6 +513,9 @@ struct TeamEstimate {
   std::map<int, msgs::Pose2> T_own_teammate;  // current map-to-map estimates
   // The map-level check of each teammate whose loops pass the evidence rules, this step.
   std::map<int, MapCheck> map_checks;
+  // The rotation lever (OptimizerStageOptions::max_rotation_lever_m) of each teammate whose
+  // loops pass the evidence rules, this step.
+  std::map<int, double> rotation_lever_m;
   int loops_in_pgo = 0;  // accepted loops the problem held (max_loops_per_teammate_keyframe)
 };
 
@@ -554,6 +564,11 @@ class OptimizerStage {
                           std::vector<msgs::Pose2>* poses) const;
   // The fraction TurnTowardHeadings turns by (placement_heading_weight, or the loops' spans).
   double HeadingTurnFraction(int robot, const team::TeamProblem& problem) const;
+  // u of placement_heading_variance_ratio: the fractions of the own and the teammate's
+  // missions so far that the keyframes of these loops (own, teammate keyframe) do not span.
+  double Unspanned(int robot, const std::vector<std::pair<int, int>>& own_mate_keyframes) const;
+  // OptimizerStageOptions::max_rotation_lever_m's lever for `robot`'s accepted loops.
+  double RotationLever(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
                                     const OwnView& own_view) const;
 
