@@ -491,7 +491,9 @@ struct OptimizerStageOptions {
   // its keyframes by their distance from the loops' teammate-keyframe centroid. The lever
   // L sqrt(u R / (u + R)), L the RMS of that distance over the teammate's keyframes so far,
   // must not exceed this (<= 0: off); a teammate beyond it is not placed, or is withdrawn.
-  double max_rotation_lever_m = 0.0;
+  // 52 m from tuning seeds 1-10, the marina and the airplane (docs/safe-merges.md): with one
+  // map's local heading error of ~2 deg, about the judge's 2 m at the teammate's keyframes.
+  double max_rotation_lever_m = 52.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
