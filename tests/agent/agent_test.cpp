@@ -1621,6 +1621,71 @@ TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {
   EXPECT_EQ(stage.teammates().at(kB).ignored, static_cast<int>(theirs.size()) - 3);
 }
 
+// max_accepted_per_teammate_keyframe: once A's registrations are decided, a new candidate
+// naming a teammate keyframe j with K accepted loops (registered from another own keyframe,
+// consistent with them) is dropped and counted at the bound K, taken at K + 1 and with the
+// bound off.
+TEST(ConsistencyStage, CandidatesAtWellSupportedTeammateKeyframesAreRedundant) {
+  Mission run;
+  Simulate(&run);
+  std::vector<msgs::InterRobotLoop> registered;
+  for (auto l : run.agent_a->consistency().candidates()) {
+    if (l.own_robot != kA) continue;
+    l.id = 0;
+    l.flags = 0;
+    registered.push_back(l);
+  }
+  const auto pose_of = [&](int index) {
+    for (const auto& k : run.a.keyframes) {
+      if (k.index == index) return std::optional<Pose2>(k.T_odom_body);
+    }
+    return std::optional<Pose2>();
+  };
+  for (const int bound_offset : {-1, 0, 1}) {  // off, K, K + 1
+    auto options = TeamAgent::ConsistencyOptions(Options(kA));
+    ConsistencyStage stage(options);
+    FeedOwnAndTeammatePoses(run, &stage);
+    const msgs::MapMatches& matches = run.agent_a->matcher().matches();
+    msgs::TeamStepStats st;
+    stage.Step(100.0, registered, matches, &st);
+    const auto accepted = stage.accepted();
+    ASSERT_GE(accepted.size(), 5u);
+    const auto& l = accepted.front();
+    int k_accepted = 0;
+    std::set<int> own_at_j;
+    for (const auto& c : stage.candidates()) {
+      if (c.teammate_keyframe != l.teammate_keyframe) continue;
+      own_at_j.insert(c.own_keyframe);
+      k_accepted += (c.flags & msgs::kLoopAccepted) ? 1 : 0;
+    }
+    // The same teammate scan seen from an own keyframe not yet paired with it.
+    int other = -1;
+    for (const auto& k : run.a.keyframes) {
+      if (!own_at_j.count(k.index)) {
+        other = k.index;
+        break;
+      }
+    }
+    ASSERT_GE(other, 0);
+    auto extra = l;
+    extra.id = 0;
+    extra.flags = 0;
+    extra.own_keyframe = other;
+    extra.T_ownkf_teammatekf =
+        reg::Compose(reg::Between(*pose_of(other), *pose_of(l.own_keyframe)), l.T_ownkf_teammatekf);
+    // The bound is an option of the stage: a second stage with it, fed the same first step.
+    options.max_accepted_per_teammate_keyframe = bound_offset < 0 ? 0 : k_accepted + bound_offset;
+    ConsistencyStage bounded(options);
+    FeedOwnAndTeammatePoses(run, &bounded);
+    bounded.Step(100.0, registered, matches, &st);
+    bounded.Step(101.0, {extra}, matches, &st);
+    const bool dropped = bound_offset == 0;
+    EXPECT_EQ(st.candidates_added, dropped ? 0 : 1) << bound_offset;
+    EXPECT_EQ(bounded.candidates().size(), registered.size() + (dropped ? 0 : 1)) << bound_offset;
+    EXPECT_EQ(bounded.teammates().at(kB).redundant, dropped ? 1 : 0) << bound_offset;
+  }
+}
+
 // max_candidates_per_teammate: A's registrations of B's scans over two steps; A holds the
 // first 4 and counts the others; B's restart frees its share.
 TEST(ConsistencyStage, CandidatesHeldPerTeammateAreBounded) {

@@ -33,6 +33,8 @@ struct ConsistencyStage::Impl {
   std::set<std::uint64_t> accepted_ids;
   std::set<std::uint64_t> sent_ids;
   std::map<int, int> held_per_teammate;  // candidates
+  // Accepted loops per (teammate, teammate keyframe), after the last decision.
+  std::map<std::pair<int, int>, int> accepted_at;
   std::uint64_t next_loop_id = 0;
   // The accepted set may have changed since the last Step looked for loops to send (every
   // accepted loop not received is sent in the step it is first accepted).
@@ -71,8 +73,10 @@ struct ConsistencyStage::Impl {
   void RefreshLoopViews() {
     owner->view_.clear();
     for (auto& [robot, s] : owner->mates_) s.candidates = s.accepted = 0;
+    accepted_at.clear();
     for (auto l : candidates) {
       const bool acc = accepted_ids.count(l.id) > 0;
+      if (acc) ++accepted_at[{l.teammate_robot, l.teammate_keyframe}];
       l.flags &= ~(msgs::kLoopAccepted | msgs::kLoopRejected);
       l.flags |= acc ? msgs::kLoopAccepted : msgs::kLoopRejected;
       owner->view_.push_back(l);
@@ -236,6 +240,17 @@ std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
     if (const auto m = mates_.find(l.teammate_robot); m != mates_.end()) ++m->second.over_bound;
     return true;
   });
+  // Candidates at teammate keyframes that already have max_accepted_per_teammate_keyframe
+  // accepted loops add nothing the filter or the PGO uses.
+  if (const int k_max = a.options.max_accepted_per_teammate_keyframe; k_max > 0) {
+    std::erase_if(fresh, [&](const msgs::InterRobotLoop& l) {
+      const auto it = a.accepted_at.find({l.teammate_robot, l.teammate_keyframe});
+      if (it == a.accepted_at.end() || it->second < k_max) return false;
+      if (const auto m = mates_.find(l.teammate_robot); m != mates_.end()) ++m->second.redundant;
+      --a.held_per_teammate[l.teammate_robot];
+      return true;
+    });
+  }
   st->candidates_added = static_cast<int>(fresh.size());
   if (!fresh.empty()) {
     const auto source = a.BuildPoseSource();

@@ -527,6 +527,10 @@ class ConsistencyFilterComponent final : public graph::Component {
     spec.Param(
         "max_candidates_per_teammate", &o_.max_candidates_per_teammate,
         {.doc = "candidates held per teammate; later ones are dropped and counted", .min = 1});
+    spec.Param("max_accepted_per_teammate_keyframe", &o_.max_accepted_per_teammate_keyframe,
+               {.doc = "new candidates naming a teammate keyframe with this many accepted "
+                       "loops are dropped and counted (0: off)",
+                .min = 0});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
@@ -562,6 +566,12 @@ class ConsistencyFilterComponent final : public graph::Component {
                 "robot " + std::to_string(robot) + ": " + std::to_string(mate.over_bound) +
                     " candidate loops dropped beyond max_candidates_per_teammate (" +
                     std::to_string(o_.max_candidates_per_teammate) + ")");
+      }
+      if (mate.redundant > 0) {
+        ctx.Log(log::Level::kInfo,
+                "robot " + std::to_string(robot) + ": " + std::to_string(mate.redundant) +
+                    " candidate loops dropped at teammate keyframes with " +
+                    std::to_string(o_.max_accepted_per_teammate_keyframe) + " accepted loops");
       }
     }
     std::string loops =

@@ -352,6 +352,12 @@ struct ConsistencyStageOptions {
   // new candidates are dropped and counted (Teammate::over_bound); the accepted set stays
   // and still places it. The marina repeated for 120 min holds at most 4,975 per teammate.
   int max_candidates_per_teammate = 8192;
+  // A new candidate naming a teammate keyframe that already has this many accepted loops is
+  // redundant: dropped and counted (Teammate::redundant; its key stays). On repeated passes
+  // every pass of a teammate is registered against every earlier own pass, so candidates grow
+  // with the square of the mission; with the bound they grow with the teammates' keyframes.
+  // Should the accepted loops there be withdrawn, new candidates are taken again. 0: off.
+  int max_accepted_per_teammate_keyframe = 0;
 };
 
 class ConsistencyStage {
@@ -363,6 +369,7 @@ class ConsistencyStage {
     int accepted = 0;
     int ignored = 0;     // received loops naming unknown keyframes, broken, or not ours
     int over_bound = 0;  // candidates dropped at max_candidates_per_teammate
+    int redundant = 0;   // candidates dropped at max_accepted_per_teammate_keyframe
   };
   explicit ConsistencyStage(const ConsistencyStageOptions& options);
   ~ConsistencyStage();
