@@ -1558,19 +1558,25 @@ msgs::FleetHeader FeedOwnAndTeammatePoses(const Mission& run, ConsistencyStage* 
   return poses.header;
 }
 
-TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
-  Mission run;
-  Simulate(&run);
-  // A's registrations of B's scans, as the exchange gave them, replayed into a fresh filter
-  // with A's trajectory, B's poses and A's final guess.
-  const auto& held = run.agent_a->consistency().candidates();
+// A's registrations of B's scans, as the exchange gave them (ids and flags cleared), to replay
+// into a fresh filter.
+std::vector<msgs::InterRobotLoop> RegisteredByA(const Mission& run) {
   std::vector<msgs::InterRobotLoop> registered;
-  for (auto l : held) {
+  for (auto l : run.agent_a->consistency().candidates()) {
     if (l.own_robot != kA) continue;
     l.id = 0;
     l.flags = 0;
     registered.push_back(l);
   }
+  return registered;
+}
+
+TEST(ConsistencyStage, NumbersCandidatesAndSendsAcceptedOnce) {
+  Mission run;
+  Simulate(&run);
+  // A's registrations of B's scans, replayed into a fresh filter with A's trajectory, B's
+  // poses and A's final guess.
+  const std::vector<msgs::InterRobotLoop> registered = RegisteredByA(run);
   ASSERT_GE(registered.size(), 5u);
   ConsistencyStage stage(TeamAgent::ConsistencyOptions(Options(kA)));
   FeedOwnAndTeammatePoses(run, &stage);
@@ -1628,13 +1634,7 @@ TEST(ConsistencyStage, LoopsReceivedFromATeammateAreCapped) {
 TEST(ConsistencyStage, CandidatesAtWellSupportedTeammateKeyframesAreRedundant) {
   Mission run;
   Simulate(&run);
-  std::vector<msgs::InterRobotLoop> registered;
-  for (auto l : run.agent_a->consistency().candidates()) {
-    if (l.own_robot != kA) continue;
-    l.id = 0;
-    l.flags = 0;
-    registered.push_back(l);
-  }
+  const std::vector<msgs::InterRobotLoop> registered = RegisteredByA(run);
   const auto pose_of = [&](int index) {
     for (const auto& k : run.a.keyframes) {
       if (k.index == index) return std::optional<Pose2>(k.T_odom_body);
@@ -1691,13 +1691,7 @@ TEST(ConsistencyStage, CandidatesAtWellSupportedTeammateKeyframesAreRedundant) {
 TEST(ConsistencyStage, CandidatesHeldPerTeammateAreBounded) {
   Mission run;
   Simulate(&run);
-  std::vector<msgs::InterRobotLoop> registered;
-  for (auto l : run.agent_a->consistency().candidates()) {
-    if (l.own_robot != kA) continue;
-    l.id = 0;
-    l.flags = 0;
-    registered.push_back(l);
-  }
+  const std::vector<msgs::InterRobotLoop> registered = RegisteredByA(run);
   ASSERT_GE(registered.size(), 7u);
   auto options = TeamAgent::ConsistencyOptions(Options(kA));
   options.max_candidates_per_teammate = 4;
