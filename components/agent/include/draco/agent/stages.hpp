@@ -350,7 +350,7 @@ struct ConsistencyStageOptions {
   // candidates of all teammates (GCM's consistency graph), so at the bound with T teammates
   // 8192 T x 0.9 kB + (8192 T)^2 / 8 bytes (T = 2: 15 MB + 34 MB). Beyond it the teammate's
   // new candidates are dropped and counted (Teammate::over_bound); the accepted set stays
-  // and still places it. The marina repeated for 120 min holds at most 4,975 per teammate.
+  // and still places it. The marina repeated for 120 min holds at most 3,665 per teammate.
   int max_candidates_per_teammate = 8192;
   // A new candidate naming a teammate keyframe that already has this many accepted loops is
   // redundant: dropped and counted (Teammate::redundant; its key stays). On repeated passes
