@@ -1389,6 +1389,69 @@ TEST(ScanExchangeStage, HeadingsSettleATurnAmbiguityAndRefuseATurnedRegistration
   EXPECT_TRUE(quarter.second.empty());
 }
 
+// serve_submap_keyframes: A's keyframes 0-4 (poses (2k, 0, 0.1k)) hold 10 points each, fewer
+// than the 30 a served scan needs; B asks for the scans of object 7, which keyframe 2 saw.
+// Single keyframes: no reply. With 1 neighbour each side: keyframe 2 with the 10 points of
+// each of keyframes 1 and 3 moved into its frame (30). With 2 and min_points 40: all 50.
+TEST(ScanExchangeStage, ServesASparseKeyframeWithItsNeighboursPoints) {
+  const auto pose = [](int k) { return Pose2{2.0 * k, 0.0, 0.1 * k}; };
+  const auto point = [](int k, int i) { return Point2{1.0 + i, 0.5 * k}; };  // in keyframe k
+  struct Case {
+    int neighbours, min_points;
+    std::size_t points;  // in the reply, 0: none
+  };
+  for (const auto& c : {Case{0, 30, 0}, Case{1, 30, 30}, Case{2, 40, 50}}) {
+    ScanExchangeStageOptions o;
+    o.robot_id = kA;
+    o.serve_submap_keyframes = c.neighbours;
+    o.selection.min_points = c.min_points;
+    ScanExchangeStage stage(o);
+    msgs::KeyframeTrajectory traj;
+    for (int k = 0; k < 5; ++k) {
+      msgs::Keyframe kf;
+      kf.index = k;
+      kf.time_s = k;
+      kf.T_odom_body = pose(k);
+      for (int i = 0; i < 10; ++i) kf.points_body.push_back(point(k, i));
+      stage.OnKeyframe(kf);
+      traj.keyframes.push_back({k, kf.time_s, pose(k)});
+    }
+    traj.time_s = 4.0;
+    stage.OnTrajectory(traj);
+    msgs::ObjectMap own;
+    msgs::Object pile;
+    pile.id = 7;
+    pile.center = pile.rect_center = {4.0, 1.0};
+    pile.length_m = pile.breadth_m = 1.0;
+    pile.num_points = 10;
+    pile.keyframes = {2};
+    own.objects.push_back(pile);
+    msgs::ScanRequest req;
+    req.header.robot_id = kB;
+    req.header.incarnation = 1;
+    req.target_robot = kA;
+    req.object_ids = {7};
+    req.max_scans = 5;
+    stage.OnScanRequest(req);
+    msgs::TeamStepStats st;
+    const auto out = stage.Step(10.0, own, msgs::MapMatches{}, &st);
+    if (c.points == 0) {
+      EXPECT_TRUE(out.replies.empty());
+      continue;
+    }
+    ASSERT_EQ(out.replies.size(), 1u) << c.neighbours;
+    const auto& r = out.replies[0];
+    EXPECT_EQ(r.keyframe, 2);
+    ASSERT_EQ(r.points_kf.size(), c.points) << c.neighbours;
+    // Keyframe 3's first point, in keyframe 2's frame.
+    const Point2 want = reg::Apply(reg::Between(pose(2), pose(3)), point(3, 0));
+    const bool found = std::any_of(r.points_kf.begin(), r.points_kf.end(), [&](const Point2& p) {
+      return std::hypot(p.x_m - want.x_m, p.y_m - want.y_m) < 1e-9;
+    });
+    EXPECT_TRUE(found) << c.neighbours;
+  }
+}
+
 TEST(GraphMatcherStage, ReverseGuessAndRestart) {
   GraphMatcherStageOptions o;
   o.robot_id = kA;

@@ -87,6 +87,35 @@ void ScanExchangeStage::RebuildOwnScans() {
   scans_version_ = own_.version();
 }
 
+// The keyframe's points, with those of its nearest neighbours (up to serve_submap_keyframes
+// each side, nearer first) moved into its frame until it holds selection.min_points.
+std::vector<msgs::Point2> ScanExchangeStage::Submap(int index) const {
+  const auto& entries = own_.entries();
+  const auto self = entries.find(index);
+  std::vector<msgs::Point2> out = self->second.points_kf;
+  const Pose2 T_kf_map = reg::Inverse(self->second.T_map_kf);
+  for (int d = 1; d <= options_.serve_submap_keyframes &&
+                  static_cast<int>(out.size()) < options_.selection.min_points;
+       ++d) {
+    for (const int j : {index - d, index + d}) {
+      const auto it = entries.find(j);
+      if (it == entries.end() || !it->second.has_pose || !it->second.has_points) continue;
+      const Pose2 T_kf_j = reg::Compose(T_kf_map, it->second.T_map_kf);
+      for (const auto& q : it->second.points_kf) out.push_back(reg::Apply(T_kf_j, q));
+    }
+  }
+  return out;
+}
+
+// own_info_ with each keyframe's point count as Submap would serve it.
+const std::vector<reg::KeyframeInfo>& ScanExchangeStage::ServedInfo() {
+  if (served_version_ == own_.version()) return served_info_;
+  served_info_ = own_info_;
+  for (auto& kf : served_info_) kf.num_points = static_cast<int>(Submap(kf.index).size());
+  served_version_ = own_.version();
+  return served_info_;
+}
+
 // Serving: replies for the own keyframes that observed the named objects.
 void ScanExchangeStage::Serve(double now_s, const msgs::ObjectMap& own_objects, Output* out) {
   for (auto& [robot, mate] : mates_) {
@@ -107,8 +136,9 @@ void ScanExchangeStage::Serve(double now_s, const msgs::ObjectMap& own_objects, 
       s.candidate_radius_m = 1.0;
       s.candidate_max_yaw_rad = 1.0;
       const std::vector<int> exclude(mate.sent_to.begin(), mate.sent_to.end());
+      const auto& info = options_.serve_submap_keyframes > 0 ? ServedInfo() : own_info_;
       const auto picks =
-          reg::SelectScanRequests(own_objects, own_objects, m, own_info_, own_info_, s, exclude);
+          reg::SelectScanRequests(own_objects, own_objects, m, info, info, s, exclude);
       for (const auto& p : picks) {
         const auto it = own_.entries().find(p.teammate_keyframe);
         if (it == own_.entries().end() || !it->second.has_pose || !it->second.has_points) {
@@ -122,7 +152,8 @@ void ScanExchangeStage::Serve(double now_s, const msgs::ObjectMap& own_objects, 
         reply.keyframe = p.teammate_keyframe;
         reply.keyframe_time_s = it->second.time_s;
         reply.T_map_kf = it->second.T_map_kf;
-        reply.points_kf = it->second.points_kf;
+        reply.points_kf = options_.serve_submap_keyframes > 0 ? Submap(p.teammate_keyframe)
+                                                              : it->second.points_kf;
         out->replies.push_back(std::move(reply));
       }
     }

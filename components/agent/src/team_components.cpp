@@ -409,6 +409,12 @@ class ScanExchangeComponent final : public graph::Component {
         {.doc = "... and the ambiguity test skips the turns the headings exclude (more loops, "
                 "and more placements a few metres off where maps bend: "
                 "docs/safe-merges.md)"});
+    spec.Param("min_scan_points", &o_.selection.min_points,
+               {.doc = "a scan with fewer points is neither requested nor served", .min = 1});
+    spec.Param("serve_submap_keyframes", &o_.serve_submap_keyframes,
+               {.doc = "a served scan under min_scan_points takes the points of up to this "
+                       "many neighbours each side (0: single keyframes)",
+                .min = 0});
     spec.Param("candidate_radius_m", &o_.selection.candidate_radius_m,
                {.doc = "own keyframes this close to a placed teammate scan are candidates",
                 .unit = "m",

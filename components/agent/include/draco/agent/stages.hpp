@@ -259,6 +259,10 @@ struct ScanExchangeStageOptions {
   std::vector<int> log_windows;
   std::size_t max_logged = 200000;
   int max_scans_per_request = 20;
+  // A served keyframe with fewer than selection.min_points points is sent with the points of
+  // up to this many neighbours on each side (nearest first, in its frame by the local SLAM's
+  // poses) until it reaches min_points; 0: single keyframes only.
+  int serve_submap_keyframes = 0;
   int max_teammate_keyframes = 20000;
   int max_teammate_scans = 400;
   // With both maps' absolute headings known: the ambiguity test probes only turns within this
@@ -314,6 +318,10 @@ class ScanExchangeStage {
   void Log(double now_s, int window, bool configured, const registration::RegistrationResult& r);
   void RebuildOwnScans();
   void Serve(double now_s, const msgs::ObjectMap& own_objects, Output* out);
+  // serve_submap_keyframes: the points a served keyframe is sent with, and every keyframe's
+  // count as served.
+  std::vector<msgs::Point2> Submap(int index) const;
+  const std::vector<registration::KeyframeInfo>& ServedInfo();
   std::vector<int> Candidates(const msgs::ObjectMap& own_objects, const msgs::Pose2& T_own_teammate,
                               const msgs::ScanReply& scan) const;
   Teammate* Mate(const msgs::FleetHeader& header);
@@ -327,6 +335,8 @@ class ScanExchangeStage {
   std::uint64_t scans_version_ = ~std::uint64_t{0};
   std::vector<registration::KeyframeScan> own_scans_;
   std::vector<registration::KeyframeInfo> own_info_;
+  std::vector<registration::KeyframeInfo> served_info_;
+  std::uint64_t served_version_ = ~std::uint64_t{0};
   std::map<int, int> own_scan_position_;
   std::vector<RegistrationAttempt> attempts_;
 };
