@@ -144,8 +144,14 @@ TEST(LandmarkMatcher, RowOfEquallySpacedPilesIsAmbiguous) {
   MatcherOptions options;
   options.landmarks = true;
   const msgs::ObjectMatch match = MatchObjectMaps(ma, mb, options);
-  EXPECT_FALSE(match.by_landmarks);
-  EXPECT_NE(match.status, msgs::MatchStatus::kMatched);
+  // Reported as the landmarks' refusal (not the clusters' "too few objects": there are none).
+  EXPECT_TRUE(match.by_landmarks);
+  EXPECT_EQ(match.status, msgs::MatchStatus::kAmbiguous);
+  EXPECT_EQ(match.num_inliers, 8);
+  EXPECT_GE(match.ambiguity, 7.0 / 8.0);
+  // Fewer landmarks than an answer needs (min_landmark_support 5): too few objects, as before.
+  ma.objects.resize(4);
+  EXPECT_EQ(MatchObjectMaps(ma, mb, options).status, msgs::MatchStatus::kTooFewObjects);
 }
 
 TEST(LandmarkMatcher, ObjectMatcherAnswersByLandmarksAndKeepsIds) {

@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -404,6 +405,59 @@ TEST(PoseGraph2d, IncrementalUpdatesMatchABatchSolve) {
   }
 }
 
+TEST(PoseGraph2d, DeferredFullSolvesComeAtMostEveryMinPosesAndReachTheBatchOptimum) {
+  const SyntheticGraph g = MakeGridWalk({.num_poses = 250, .seed = 11});
+  PoseGraph2d batch = BuildGraph(g);
+  ASSERT_TRUE(batch.Optimize().usable);
+  const auto run = [&](int min_poses, std::vector<int>* full_at) {
+    PoseGraph2d inc;
+    inc.AddPose(0, g.truth[0]);
+    inc.AddPrior(0, g.truth[0], InformationFromSigmas(0.01, 0.01, 0.001));
+    const IncrementalOptions options{.window_size = 15, .full_solve_min_poses = min_poses};
+    std::size_t e = 0;
+    int pending_since = -1;  // first pose whose loop reached behind the window, not yet solved
+    for (int k = 1; k < static_cast<int>(g.truth.size()); ++k) {
+      inc.AddPose(k, Compose(inc.Pose(k - 1), g.edges[e].T_i_j));
+      for (; e < g.edges.size() && g.edges[e].j == k; ++e) {
+        inc.AddBetween(g.edges[e].i, k, g.edges[e].T_i_j, g.Information(),
+                       g.edges[e].loop ? FactorKind::kLoop : FactorKind::kOdometry);
+        if (g.edges[e].loop && g.edges[e].i < k - 15 && pending_since < 0) pending_since = k;
+      }
+      const SolveSummary s = inc.Update(options);
+      EXPECT_TRUE(s.usable) << s.report;
+      if (s.full) {
+        full_at->push_back(k);
+        pending_since = -1;
+      }
+      // A loop behind the window waits for at most min_poses poses.
+      if (pending_since >= 0) {
+        EXPECT_LT(k - pending_since, std::max(min_poses, 1)) << k;
+      }
+    }
+    inc.Optimize();
+    EXPECT_NEAR(inc.Chi2(), batch.Chi2(), 1e-6 * batch.Chi2());
+    for (std::size_t k = 0; k < g.truth.size(); ++k) {
+      EXPECT_NEAR(inc.Pose(k).x_m, batch.Pose(k).x_m, 1e-3);
+      EXPECT_NEAR(inc.Pose(k).y_m, batch.Pose(k).y_m, 1e-3);
+    }
+  };
+  std::vector<int> at_once, deferred;
+  run(0, &at_once);
+  run(10, &deferred);
+  ASSERT_FALSE(deferred.empty());
+  // Past the first window (full while the graph is no larger), full solves are >= 10 apart.
+  for (std::size_t i = 1; i < deferred.size(); ++i) {
+    if (deferred[i - 1] >= 15) {
+      EXPECT_GE(deferred[i] - deferred[i - 1], 10) << deferred[i];
+    }
+  }
+  const auto after_window = [](const std::vector<int>& v) {
+    return std::count_if(v.begin(), v.end(), [](int k) { return k > 15; });
+  };
+  EXPECT_GT(after_window(deferred), 0);
+  EXPECT_LT(after_window(deferred), after_window(at_once));
+}
+
 TEST(PoseGraph2d, WindowSolveOnlyMovesTheNewestPoses) {
   const SyntheticGraph g =
       MakeGridWalk({.num_poses = 40, .loop_radius_m = -1.0, .seed = 5});  // no loops
@@ -706,6 +760,37 @@ TEST(PoseGraph2d, RadiusStateExplainsNearFaceSightingsFromOppositeLanes) {
     EXPECT_NEAR(round.Point(j).y_m, w.landmarks[j].y_m, 0.02);
   }
   EXPECT_LT(PositionRmse(round, w.truth), 0.02);
+}
+
+TEST(PoseGraph2d, RadiusStateStopsAtItsBounds) {
+  // Sightings that imply a radius beyond max_m (1.2 m objects, max 0.5 m) or below 0 (the far
+  // face, -0.5 m) leave the radius exactly at the bound; the centres stay within the part of the
+  // radius the bound leaves unexplained.
+  for (const double implied : {1.2, -0.5}) {
+    LaneWorld w = MakeLaneWorld(0.0);
+    for (auto& o : w.observations) {
+      const double d = std::hypot(o.p_pose.x_m, o.p_pose.y_m);
+      o.p_pose = {o.p_pose.x_m * (1.0 - implied / d), o.p_pose.y_m * (1.0 - implied / d)};
+    }
+    PoseGraph2d round = BuildLaneGraph(w, false);
+    for (const auto& o : w.observations) {
+      if (!round.HasPoint(o.point)) {
+        round.AddPoint(o.point, Transform(round.Pose(o.pose), o.p_pose),
+                       PointRadiusPrior{.prior_m = 0.3, .sigma_m = 5.0, .max_m = 0.5});
+      }
+      round.AddPointObservation(o.pose, o.point, o.p_pose, kLaneObsInfo);
+    }
+    const SolveSummary s = round.Optimize();
+    ASSERT_TRUE(s.usable) << s.report;
+    const double bound = implied > 0.5 ? 0.5 : 0.0;
+    for (int j = 0; j < 10; ++j) {
+      EXPECT_NEAR(*round.PointRadius(j), bound, 1e-6) << "point " << j << ", implied " << implied;
+      EXPECT_LT(std::hypot(round.Point(j).x_m - w.landmarks[j].x_m,
+                           round.Point(j).y_m - w.landmarks[j].y_m),
+                std::abs(implied - bound))
+          << implied;
+    }
+  }
 }
 
 TEST(PoseGraph2d, IncrementalUpdatesWithLandmarksMatchABatchSolve) {

@@ -78,7 +78,14 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   if (!prior || !options.heading_votes || !(options.max_heading_gap_rad > 0.0)) return m;
   if (m.status != MatchStatus::kMatched) {
     msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options);
-    return votes.status == MatchStatus::kMatched ? votes : m;
+    if (votes.status == MatchStatus::kMatched) return votes;
+    // Too few objects for the clusters' paths, but the votes (every object) ran: their
+    // refusal is the reason to report.
+    if (m.status == MatchStatus::kTooFewObjects && votes.status != MatchStatus::kTooFewObjects) {
+      votes.by_votes = true;
+      return votes;
+    }
+    return m;
   }
   if (!options.votes_cross_check) return m;
   detail::VotePeaks peaks;
@@ -134,16 +141,36 @@ msgs::ObjectMatch MatchWithoutVotes(const ObjectMap& a, const ObjectMap& b,
   LandmarkMatchOptions landmark = options.landmark;
   landmark.yaw_prior_rad = HeadingYawPrior(a, b);
   landmark.max_yaw_gap_rad = options.max_heading_gap_rad;
+  // The landmarks' refusal, reported instead of the clusters' "too few objects".
+  const auto refused = [&](const LandmarkMatchResult& m) {
+    if (clusters.status != MatchStatus::kTooFewObjects ||
+        std::min(la.size(), lb.size()) < std::size_t(options.min_landmark_support))
+      return clusters;
+    msgs::ObjectMatch out;
+    out.robot_a = a.robot_id;
+    out.robot_b = b.robot_id;
+    out.by_landmarks = true;
+    out.num_candidates = m.hypotheses;
+    out.num_inliers = m.support;
+    out.ambiguity = m.support > 0 ? double(m.runner_up_support) / double(m.support) : 0.0;
+    out.status = m.found && m.support >= options.min_landmark_support ? MatchStatus::kAmbiguous
+                                                                      : MatchStatus::kTooFewInliers;
+    return out;
+  };
   LandmarkMatchResult r = MatchLandmarkPoints(pa, pb, landmark);
   if (!accept(r, options.max_landmark_ambiguity)) {
-    if (!(options.wide_landmark_tolerance_m > 0.0)) return clusters;
+    if (!(options.wide_landmark_tolerance_m > 0.0)) return refused(r);
     LandmarkMatchOptions wide = landmark;
     wide.tolerance_m = options.wide_landmark_tolerance_m;
     r = MatchLandmarkPoints(pa, pb, wide);
-    if (!accept(r, options.wide_max_landmark_ambiguity)) return clusters;
+    if (!accept(r, options.wide_max_landmark_ambiguity)) return refused(r);
   }
-  if (!HeadingAllows(HeadingYawPrior(a, b), r.T_a_b.yaw_rad, options.max_heading_gap_rad))
-    return clusters;
+  if (!HeadingAllows(HeadingYawPrior(a, b), r.T_a_b.yaw_rad, options.max_heading_gap_rad)) {
+    if (clusters.status != MatchStatus::kTooFewObjects) return clusters;
+    msgs::ObjectMatch out = refused(r);
+    out.status = MatchStatus::kHeadingMismatch;
+    return out;
+  }
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;

@@ -84,6 +84,7 @@ struct PoseGraph2d::Impl {
   std::size_t factors_at_last_solve = 0;
   std::size_t observations_at_last_solve = 0;
   std::size_t nodes_at_last_full = 0;
+  bool full_pending = false;  // a full solve was triggered and deferred (full_solve_min_poses)
 
   std::size_t Index(PoseId id) const {
     const auto it = index.find(id);

@@ -119,6 +119,7 @@ SolveSummary PoseGraph2d::Optimize(const SolverOptions& options) {
   m.factors_at_last_solve = m.factors.size();
   m.observations_at_last_solve = m.observations.size();
   m.nodes_at_last_full = m.nodes.size();
+  m.full_pending = false;
   out.time_s = std::chrono::duration<double>(Clock::now() - start).count();
   return out;
 }
@@ -212,8 +213,18 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
       }
     }
   }
+  if (full && m.nodes_at_last_full > 0 && !(n <= w) && options.full_solve_min_poses > 1 &&
+      n - m.nodes_at_last_full < static_cast<std::size_t>(options.full_solve_min_poses)) {
+    m.full_pending = true;  // OptimizeWindow forgets the trigger: remembered here
+    full = false;
+  } else if (!full && m.full_pending &&
+             n - m.nodes_at_last_full >= static_cast<std::size_t>(options.full_solve_min_poses)) {
+    full = true;
+  }
   return full ? Optimize(options.full) : OptimizeWindow(options.window_size, options.local);
 }
+
+bool PoseGraph2d::FullSolvePending() const { return impl_->full_pending; }
 
 double PoseGraph2d::Chi2() const { return impl_->TotalChi2(); }
 

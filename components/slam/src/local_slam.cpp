@@ -737,10 +737,18 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   if (o.landmarks) m.ObserveLandmarks(k);
   pg::IncrementalOptions inc;
   inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
+  inc.full_solve_min_poses = o.full_solve_min_keyframes;
   const pg::SolveSummary s = m.graph.Update(inc);
   result.full_solve = s.full;
   result.solve_time_s = s.time_s;
   return result;
+}
+
+bool LocalSlam::Flush() {
+  if (!impl_->graph.FullSolvePending()) return false;
+  pg::IncrementalOptions inc;  // its full-solve settings
+  impl_->graph.Optimize(inc.full);
+  return true;
 }
 
 std::vector<KeyframeEstimate> LocalSlam::Trajectory() const {

@@ -49,6 +49,9 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "candidate search radius", .unit = "m", .min = 0});
     spec.Param("loop_min_overlap", &o_.loop_min_overlap,
                {.doc = "ICP overlap ratio needed", .min = 0, .max = 1});
+    spec.Param("full_solve_min_keyframes", &o_.full_solve_min_keyframes,
+               {.doc = "a triggered full pose-graph solve waits until this many keyframes were "
+                       "added since the last one (0: at once)"});
     spec.Param("loop_max_candidates", &o_.loop_max_candidates,
                {.doc = "candidates registered per keyframe", .min = 0});
     spec.Param("pcm_chi2_threshold", &o_.pcm_chi2_threshold,
@@ -206,6 +209,8 @@ class LocalSlamComponent final : public graph::Component {
         loops_accepted_ += r.loops_accepted;
         loops_ambiguous_ += r.loops_ambiguous;
         loops_chain_rejected_ += r.loops_chain_rejected;
+        (r.full_solve ? full_solves_ : window_solves_) += 1;
+        (r.full_solve ? full_solve_s_ : window_solve_s_) += r.solve_time_s;
       } catch (const std::exception& e) {
         pending_keyframes_.pop_front();
         return Status::Error(e.what());
@@ -218,6 +223,14 @@ class LocalSlamComponent final : public graph::Component {
     return Status::Ok();
   }
   Status Stop(Context& ctx) override {
+    if (slam_.Flush()) ++full_solves_;  // the files below hold the last full solve
+    if (full_solves_ + window_solves_ > 0) {
+      char line[200];
+      std::snprintf(line, sizeof(line),
+                    "local SLAM: %d full solves (%.2f s), %d window solves (%.2f s)", full_solves_,
+                    full_solve_s_, window_solves_, window_solve_s_);
+      log::Info(prefix_ + line);
+    }
     if (loops_ambiguous_ > 0) {
       log::Info(prefix_ + "local SLAM: " + std::to_string(loops_ambiguous_) +
                 (o_.loop_ambiguity_inflate
@@ -318,6 +331,8 @@ class LocalSlamComponent final : public graph::Component {
   int loops_accepted_ = 0;
   int loops_ambiguous_ = 0;
   int loops_chain_rejected_ = 0;
+  int full_solves_ = 0, window_solves_ = 0;  // pose-graph solves, and their time
+  double full_solve_s_ = 0.0, window_solve_s_ = 0.0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;
   std::map<int, graph::Stamped<msgs::SequentialFactor>> pending_factors_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -80,9 +80,11 @@ struct ObjectMatch {
   // coincide (their residual is the lateral offset) among the pairs.
   bool by_lines = false;
   int num_line_pairs = 0;
-  // Answer of the landmark path (objects::MatcherOptions::landmarks): pairs of landmarks.
+  // Answer of the landmark path (objects::MatcherOptions::landmarks): pairs of landmarks; on a
+  // refusal, the landmark path's reason (the maps had too few clusters for the others).
   bool by_landmarks = false;
-  // Answer of the translation votes under the maps' headings (MatcherOptions::heading_votes).
+  // Answer of the translation votes under the maps' headings (MatcherOptions::heading_votes),
+  // or their reason for refusing when the clusters were too few for the other paths.
   bool by_votes = false;
 };
 

@@ -146,6 +146,10 @@ struct IncrementalOptions {
   int full_solve_every = 0;  // poses added between forced full solves; 0: only when triggered
   // A new factor touching a pose older than the window triggers a full solve.
   bool full_solve_on_loop = true;
+  // A triggered full solve waits until this many poses were added since the last one (window
+  // solves meanwhile; 0 or 1: at once): on repeated passes nearly every pose re-observes an old
+  // landmark or closes a loop, and a full solve per pose makes each step cost the whole graph.
+  int full_solve_min_poses = 0;
   SolverOptions local{
       .linear_solver = LinearSolver::kDenseNormalCholesky, .max_iterations = 10, .num_threads = 1};
   SolverOptions full{};
@@ -216,6 +220,8 @@ class PoseGraph2d {
   // than the window (a new point observation counts when its point was observed from a pose
   // older than the window) or a periodic full solve is due.
   SolveSummary Update(const IncrementalOptions& options = {});
+  // A full solve was triggered and deferred (IncrementalOptions::full_solve_min_poses).
+  bool FullSolvePending() const;
 
   // chi2 of the whole graph, point observations included (robust losses not applied), and
   // of one factor.

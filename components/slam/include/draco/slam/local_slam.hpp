@@ -159,6 +159,10 @@ struct LocalSlamOptions {
   int landmark_pass_gap = 3;
 
   int window_size = 20;  // incremental solve window (newest keyframes)
+  // A full solve (a loop closed, an old landmark seen again) waits until this many keyframes
+  // were added since the last one; window solves meanwhile (pose_graph::IncrementalOptions::
+  // full_solve_min_poses; 0: at once).
+  int full_solve_min_keyframes = 0;
 };
 
 // One point landmark candidate of a keyframe: a compact isolated cluster of its points.
@@ -258,6 +262,9 @@ class LocalSlam {
   // Adds keyframe k with the factor from k-1 (nullptr for the first keyframe, or to use the
   // dead-reckoning increment carried by the keyframe). Keyframes must arrive in index order.
   StepResult AddKeyframe(const msgs::Keyframe& keyframe, const msgs::SequentialFactor* factor);
+  // Runs the full solve still waiting (full_solve_min_keyframes), if any: at the end of a
+  // mission. Returns whether one ran.
+  bool Flush();
 
   std::vector<KeyframeEstimate> Trajectory() const;
   const std::vector<LoopRecord>& Loops() const;
