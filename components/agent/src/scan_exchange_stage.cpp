@@ -87,31 +87,51 @@ void ScanExchangeStage::RebuildOwnScans() {
   scans_version_ = own_.version();
 }
 
-// The keyframe's points, with those of its nearest neighbours (up to serve_submap_keyframes
-// each side, nearer first) moved into its frame until it holds selection.min_points.
-std::vector<msgs::Point2> ScanExchangeStage::Submap(int index) const {
-  const auto& entries = own_.entries();
+namespace {
+
+// Calls visit(entry, T_kf_j) for keyframe `index` (identity) and then its nearest neighbours
+// (up to submap_keyframes each side, nearer first) while fewer than min_points were visited.
+template <typename Entries, typename Visit>
+void VisitSubmap(const Entries& entries, int index, int submap_keyframes, int min_points,
+                 Visit&& visit) {
   const auto self = entries.find(index);
-  std::vector<msgs::Point2> out = self->second.points_kf;
+  int points = static_cast<int>(self->second.points_kf.size());
+  visit(self->second, Pose2{});
   const Pose2 T_kf_map = reg::Inverse(self->second.T_map_kf);
-  for (int d = 1; d <= options_.serve_submap_keyframes &&
-                  static_cast<int>(out.size()) < options_.selection.min_points;
-       ++d) {
+  for (int d = 1; d <= submap_keyframes && points < min_points; ++d) {
     for (const int j : {index - d, index + d}) {
       const auto it = entries.find(j);
       if (it == entries.end() || !it->second.has_pose || !it->second.has_points) continue;
-      const Pose2 T_kf_j = reg::Compose(T_kf_map, it->second.T_map_kf);
-      for (const auto& q : it->second.points_kf) out.push_back(reg::Apply(T_kf_j, q));
+      points += static_cast<int>(it->second.points_kf.size());
+      visit(it->second, reg::Compose(T_kf_map, it->second.T_map_kf));
     }
   }
+}
+
+}  // namespace
+
+// The keyframe's points, with those of its nearest neighbours (up to serve_submap_keyframes
+// each side, nearer first) moved into its frame until it holds selection.min_points.
+std::vector<msgs::Point2> ScanExchangeStage::Submap(int index) const {
+  std::vector<msgs::Point2> out;
+  VisitSubmap(own_.entries(), index, options_.serve_submap_keyframes, options_.selection.min_points,
+              [&](const auto& kf, const Pose2& T_kf_j) {
+                for (const auto& q : kf.points_kf) out.push_back(reg::Apply(T_kf_j, q));
+              });
   return out;
 }
 
-// own_info_ with each keyframe's point count as Submap would serve it.
+// own_info_ with each keyframe's point count as Submap would serve it (counted, not built).
 const std::vector<reg::KeyframeInfo>& ScanExchangeStage::ServedInfo() {
   if (served_version_ == own_.version()) return served_info_;
   served_info_ = own_info_;
-  for (auto& kf : served_info_) kf.num_points = static_cast<int>(Submap(kf.index).size());
+  for (auto& kf : served_info_) {
+    kf.num_points = 0;
+    VisitSubmap(own_.entries(), kf.index, options_.serve_submap_keyframes,
+                options_.selection.min_points, [&](const auto& e, const Pose2&) {
+                  kf.num_points += static_cast<int>(e.points_kf.size());
+                });
+  }
   served_version_ = own_.version();
   return served_info_;
 }
