@@ -986,6 +986,48 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   EXPECT_TRUE(stage.SharedTransforms().empty());
 }
 
+TEST(OptimizerStage, PlacesATeammateOnlyOnceItPlacedThisRobotTooAndTheyAgree) {
+  // Five independent true loops verify robot 1 (as above); with mutual placement on it is
+  // shared but not placed until robot 1 shares its own placement of robot 0, and placed only
+  // when T_0_1 * T_1_0 moves the own keyframes by less than the gap.
+  OptimizerStageOptions o;
+  o.robot_id = 0;
+  o.optimize_period_s = 0.0;
+  o.mutual_placement_max_gap_m = 2.0;
+  OptimizerStage stage(o);
+  const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+  const TeammateOne mate(&stage);
+  const std::vector<msgs::InterRobotLoop> loops{
+      mate.Loop(traj, 11, 1, 2), mate.Loop(traj, 12, 3, 4), mate.Loop(traj, 13, 5, 6),
+      mate.Loop(traj, 14, 1, 4), mate.Loop(traj, 15, 3, 6)};
+  msgs::TeamStepStats st;
+  stage.Step(10.0, loops, mate.matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  ASSERT_EQ(stage.SharedTransforms().size(), 1u);  // shared while it waits: no deadlock
+  EXPECT_NEAR(stage.SharedTransforms()[0].T_sender_robot.x_m, mate.T_0_1.x_m, 1e-3);
+  const auto share = [&](const Pose2& T_1_0) {
+    msgs::TeammateTransforms t;
+    t.header.robot_id = 1;
+    t.header.incarnation = 1;
+    t.transforms = {{0, T_1_0}};
+    stage.OnTeammateTransforms(t);
+  };
+  // Robot 1's placement of robot 0 turned by 0.6 rad about robot 1's origin: the own keyframes
+  // (RMS 5.1 m from there) move by 3.0 m RMS.
+  const Pose2 T_1_0 = reg::Inverse(mate.T_0_1);
+  share(reg::Compose(Pose2{0.0, 0.0, 0.6}, T_1_0));
+  stage.Step(20.0, loops, mate.matches, &st);
+  EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  // 1 m off along x: within 2 m, placed.
+  share(reg::Compose(Pose2{1.0, 0.0, 0.0}, T_1_0));
+  stage.Step(30.0, loops, mate.matches, &st);
+  ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+  EXPECT_NEAR(stage.estimate().T_own_teammate.at(1).x_m, mate.T_0_1.x_m, 1e-3);
+  // The two cannot be combined.
+  o.place_chained_teammates = true;
+  EXPECT_THROW(OptimizerStage{o}, std::invalid_argument);
+}
+
 TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   // Five independent true loops place robot 1 (as above) while the teammate's objects lie on
   // own sonar returns under them. When the teammate's map holds three more objects where the

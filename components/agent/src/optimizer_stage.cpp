@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 
 #include "draco/agent/stages.hpp"
@@ -15,6 +16,11 @@ using namespace stage_util;  // NOLINT(google-build-using-namespace): private he
 OptimizerStage::OptimizerStage(const OptimizerStageOptions& options)
     : options_(options), poses_(options.max_teammate_keyframes), last_optimize_s_(kNever) {
   options_.two_step.solver.num_threads = 1;  // bit-identical solves
+  if (options_.mutual_placement_max_gap_m > 0.0 && options_.place_chained_teammates) {
+    throw std::invalid_argument(
+        "team.TwoStepOptimizer: mutual_placement_max_gap_m > 0 and place_chained_teammates "
+        "cannot be combined (shared transforms then include placements not yet confirmed)");
+  }
 }
 
 void OptimizerStage::OnKeyframePoses(const msgs::KeyframePoses& poses) {
@@ -50,7 +56,11 @@ std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const
   std::vector<msgs::Heartbeat::Transform> out;
   for (const int robot : loop_verified_) {
     const auto it = estimate_.T_own_teammate.find(robot);
-    if (it != estimate_.T_own_teammate.end()) out.push_back({robot, it->second});
+    if (it != estimate_.T_own_teammate.end()) {
+      out.push_back({robot, it->second});
+    } else if (const auto u = unconfirmed_.find(robot); u != unconfirmed_.end()) {
+      out.push_back({robot, u->second});  // waiting for mutual placement
+    }
   }
   return out;
 }
@@ -258,6 +268,27 @@ double OptimizerStage::Unspanned(int robot,
     return all.Length() > 0.0 ? 1.0 - std::min(1.0, loops.Length() / all.Length()) : 1.0;
   };
   return unspanned(own_loops, own_all) + unspanned(mate_loops, mate_all);
+}
+
+double OptimizerStage::MutualGap(int robot, const Pose2& T_own_mate,
+                                 const std::vector<Pose2>& own_poses,
+                                 const std::vector<bool>& own_real) const {
+  const auto held = shared_.find(robot);
+  if (held == shared_.end()) return std::numeric_limits<double>::infinity();
+  const auto e = std::find_if(held->second.begin(), held->second.end(),
+                              [&](const auto& t) { return t.robot_id == options_.robot_id; });
+  if (e == held->second.end()) return std::numeric_limits<double>::infinity();
+  const Pose2 T_loop = reg::Compose(T_own_mate, e->T_sender_robot);  // identity if they agree
+  double sum_m2 = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < own_poses.size() && k < own_real.size(); ++k) {
+    if (!own_real[k]) continue;
+    const msgs::Point2 p{own_poses[k].x_m, own_poses[k].y_m};
+    const msgs::Point2 q = reg::Apply(T_loop, p);
+    sum_m2 += (q.x_m - p.x_m) * (q.x_m - p.x_m) + (q.y_m - p.y_m) * (q.y_m - p.y_m);
+    ++n;
+  }
+  return n > 0 ? std::sqrt(sum_m2 / n) : std::numeric_limits<double>::infinity();
 }
 
 double OptimizerStage::RotationLever(int robot,
@@ -625,6 +656,19 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     const auto g = guess(robot);
     const auto aligned = solved ? AlignSe2(local, moved) : std::nullopt;
     next.T_own_teammate[robot] = aligned ? *aligned : g.value_or(Pose2{});
+  }
+  if (options_.mutual_placement_max_gap_m > 0.0) {
+    // A loop-verified teammate stays out until it placed this robot and the two agree.
+    unconfirmed_.clear();
+    for (const int robot : loop_verified_) {
+      const auto it = next.T_own_teammate.find(robot);
+      if (it == next.T_own_teammate.end()) continue;
+      const double gap_m = MutualGap(robot, it->second, own_poses, own_real);
+      if (gap_m <= options_.mutual_placement_max_gap_m) continue;
+      unconfirmed_[robot] = it->second;
+      next.T_own_teammate.erase(it);
+      next.trajectories.erase(robot);
+    }
   }
   estimate_ = std::move(next);
 }

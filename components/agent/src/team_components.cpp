@@ -20,6 +20,7 @@
 #include <functional>
 #include <memory>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -688,6 +689,12 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "fractions of the two missions so far the loops' keyframes do not span "
                        "(0: off)",
                 .min = 0.0});
+    spec.Param("mutual_placement_max_gap_m", &o_.mutual_placement_max_gap_m,
+               {.doc = "place a loop-verified teammate only once it placed this robot too and "
+                       "T_own_mate * T_mate_own moves the own keyframes by an RMS below this "
+                       "(0: off)",
+                .unit = "m",
+                .min = 0.0});
     spec.Param("max_rotation_lever_m", &o_.max_rotation_lever_m,
                {.doc = "no placement while the teammate's keyframes reach further than this "
                        "from its loops' keyframes, weighted by the rotation the loops and "
@@ -727,7 +734,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
     o_.two_step.anchor = global_anchor_ == "rigid"        ? team::GlobalAnchor::kRigid
                          : global_anchor_ == "first_loop" ? team::GlobalAnchor::kFirstLoop
                                                           : team::GlobalAnchor::kTouchedPoses;
-    stage_ = std::make_unique<OptimizerStage>(o_);
+    try {
+      stage_ = std::make_unique<OptimizerStage>(o_);
+    } catch (const std::invalid_argument& e) {
+      return Status::Error(e.what());
+    }
     return Status::Ok();
   }
   Status Process(Context&) override {

@@ -435,6 +435,14 @@ struct OptimizerStageOptions {
   // evidence rules below; a teammate whose own map is wrong (a dead DVL) then cannot carry
   // its error into every robot's estimate.
   bool place_chained_teammates = false;
+  // Mutual placement (0: off). A teammate that passes the evidence rules enters the estimate
+  // only once it has placed this robot too (its shared transform) and the two agree: the own
+  // keyframes moved by T_own_mate * T_mate_own stay within this RMS distance. The two
+  // directions stand on different scans registered against different windows through
+  // different filters; the shared transforms then carry the placements that wait for this
+  // (so that neither waits for the other), so it cannot be combined with
+  // place_chained_teammates (std::invalid_argument).
+  double mutual_placement_max_gap_m = 0.0;
   int max_teammate_keyframes = 20000;
   // The own trajectory enters the two-step PGO as a chain of its relative poses with these
   // sigmas per keyframe step. The reference's 0.1 m / 0.01 rad let true but imprecise loops
@@ -589,6 +597,11 @@ class OptimizerStage {
   // u of placement_heading_variance_ratio: the fractions of the own and the teammate's
   // missions so far that the keyframes of these loops (own, teammate keyframe) do not span.
   double Unspanned(int robot, const std::vector<std::pair<int, int>>& own_mate_keyframes) const;
+  // OptimizerStageOptions::mutual_placement_max_gap_m's gap: the RMS distance the own keyframes
+  // move under T_own_mate * T_mate_own, T_mate_own as `robot` shared it (infinity: not shared).
+  double MutualGap(int robot, const msgs::Pose2& T_own_mate,
+                   const std::vector<msgs::Pose2>& own_poses,
+                   const std::vector<bool>& own_real) const;
   // OptimizerStageOptions::max_rotation_lever_m's lever for `robot`'s accepted loops.
   double RotationLever(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
@@ -613,6 +626,8 @@ class OptimizerStage {
   TeamEstimate estimate_;
   std::map<int, std::vector<msgs::Heartbeat::Transform>> shared_;  // by sender
   std::set<int> loop_verified_;                                    // after the last step
+  // Loop-verified teammates waiting for mutual placement: T_own_teammate, shared, not placed.
+  std::map<int, msgs::Pose2> unconfirmed_;
   msgs::ObjectMap own_objects_;
   struct HeldObjects {
     double time_s = 0.0;  // when the teammate sent it: its coverage is counted up to then
