@@ -18,7 +18,8 @@ namespace {
 std::atomic<int> g_active{0};
 std::atomic<std::size_t> g_largest{0};
 
-void Note(std::size_t size) {
+// Unused when sanitized (the sanitizer owns operator new).
+[[maybe_unused]] void Note(std::size_t size) {
   if (g_active.load(std::memory_order_relaxed) == 0) return;
   std::size_t seen = g_largest.load(std::memory_order_relaxed);
   while (size > seen && !g_largest.compare_exchange_weak(seen, size)) {
