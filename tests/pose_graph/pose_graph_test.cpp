@@ -730,25 +730,34 @@ TEST(PointRadiusObservation, PredictsTheNearFaceOfTheCentre) {
   EXPECT_THROW(graph.AddPoint(6, {}, PointRadiusPrior{.sigma_m = 0.0}), std::invalid_argument);
 }
 
+// The lane world with round objects of radius_m: each sighting is moved to the face toward the
+// sonar (*w gets the moved sightings); the graph has a radius state per point (prior 0.3 m,
+// sigma 5 m, at most max_m).
+PoseGraph2d RoundObjectsGraph(double radius_m, double max_m, LaneWorld* w) {
+  *w = MakeLaneWorld(0.0);
+  for (auto& o : w->observations) {
+    const double d = std::hypot(o.p_pose.x_m, o.p_pose.y_m);
+    o.p_pose = {o.p_pose.x_m * (1.0 - radius_m / d), o.p_pose.y_m * (1.0 - radius_m / d)};
+  }
+  PoseGraph2d round = BuildLaneGraph(*w, false);
+  for (const auto& o : w->observations) {
+    if (!round.HasPoint(o.point)) {
+      round.AddPoint(o.point, Transform(round.Pose(o.pose), o.p_pose),
+                     PointRadiusPrior{.prior_m = 0.3, .sigma_m = 5.0, .max_m = max_m});
+    }
+    round.AddPointObservation(o.pose, o.point, o.p_pose, kLaneObsInfo);
+  }
+  return round;
+}
+
 TEST(PoseGraph2d, RadiusStateExplainsNearFaceSightingsFromOppositeLanes) {
   // Round objects of radius 0.8 m: each sighting is the face toward the sonar, so sightings
   // from the two lanes disagree by 1.6 m. A point without radius cannot explain both; a
   // point with a radius state (prior 0.3 m, sigma 5 m) recovers the radius and the centre.
   constexpr double kRadius = 0.8;
-  LaneWorld w = MakeLaneWorld(0.0);
-  for (auto& o : w.observations) {
-    const double d = std::hypot(o.p_pose.x_m, o.p_pose.y_m);
-    o.p_pose = {o.p_pose.x_m * (1.0 - kRadius / d), o.p_pose.y_m * (1.0 - kRadius / d)};
-  }
+  LaneWorld w;
+  PoseGraph2d round = RoundObjectsGraph(kRadius, 2.0, &w);
   PoseGraph2d plain = BuildLaneGraph(w, true);
-  PoseGraph2d round = BuildLaneGraph(w, false);
-  for (const auto& o : w.observations) {
-    if (!round.HasPoint(o.point)) {
-      round.AddPoint(o.point, Transform(round.Pose(o.pose), o.p_pose),
-                     PointRadiusPrior{.prior_m = 0.3, .sigma_m = 5.0, .max_m = 2.0});
-    }
-    round.AddPointObservation(o.pose, o.point, o.p_pose, kLaneObsInfo);
-  }
   const SolveSummary sp = plain.Optimize(), sr = round.Optimize();
   ASSERT_TRUE(sp.usable && sr.usable) << sr.report;
   // Without a radius the sightings leave a chi2 of 8 per observation (112 of them).
@@ -767,19 +776,8 @@ TEST(PoseGraph2d, RadiusStateStopsAtItsBounds) {
   // face, -0.5 m) leave the radius exactly at the bound; the centres stay within the part of the
   // radius the bound leaves unexplained.
   for (const double implied : {1.2, -0.5}) {
-    LaneWorld w = MakeLaneWorld(0.0);
-    for (auto& o : w.observations) {
-      const double d = std::hypot(o.p_pose.x_m, o.p_pose.y_m);
-      o.p_pose = {o.p_pose.x_m * (1.0 - implied / d), o.p_pose.y_m * (1.0 - implied / d)};
-    }
-    PoseGraph2d round = BuildLaneGraph(w, false);
-    for (const auto& o : w.observations) {
-      if (!round.HasPoint(o.point)) {
-        round.AddPoint(o.point, Transform(round.Pose(o.pose), o.p_pose),
-                       PointRadiusPrior{.prior_m = 0.3, .sigma_m = 5.0, .max_m = 0.5});
-      }
-      round.AddPointObservation(o.pose, o.point, o.p_pose, kLaneObsInfo);
-    }
+    LaneWorld w;
+    PoseGraph2d round = RoundObjectsGraph(implied, 0.5, &w);
     const SolveSummary s = round.Optimize();
     ASSERT_TRUE(s.usable) << s.report;
     const double bound = implied > 0.5 ? 0.5 : 0.0;
