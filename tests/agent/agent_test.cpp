@@ -192,6 +192,17 @@ class Exchange {
     }
   }
 
+  // Robot `from`'s shared map-to-map estimates (the heartbeat's transforms) to `to`.
+  void ShareTransforms(int from, const TeamAgent& from_agent, double t, TeamAgent& to) {
+    msgs::TeammateTransforms m;
+    m.header.robot_id = robots_[from]->id;
+    m.header.incarnation = robots_[from]->incarnation;
+    m.header.time_s = t;
+    m.header.seq = ++seq_[from][2];
+    m.transforms = from_agent.SharedTransforms();
+    to.OnTeammateTransforms(m);
+  }
+
   // Replies in `out` of robot `from` answer the request its teammate sent last.
   void CheckReplies(int from, const Outbox& out, const TeamAgent& agent, int max_scans,
                     int requests_served, Checks* c) {
@@ -215,7 +226,7 @@ class Exchange {
 
  private:
   RobotData* robots_[2];
-  std::map<int, std::array<std::uint32_t, 2>> seq_;
+  std::map<int, std::array<std::uint32_t, 3>> seq_;
   std::map<int, msgs::ScanRequest> pending_requests_;
 };
 
@@ -267,6 +278,7 @@ void Simulate(Mission* run) {
     for (int i = 0; i < 2; ++i) {
       requests_in[1 - i] = static_cast<int>(out[i].requests.size());
       ex.Deliver(i, out[i], t, *agents[1 - i], &run->checks);
+      ex.ShareTransforms(i, *agents[i], t, *agents[1 - i]);
     }
     run->end_s = t;
   }
@@ -733,6 +745,7 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   // Own robot 0 has an accepted loop with robot 1 and no match with robot 2; robot 1 shares
   // its loop-verified T_1_2. Robot 2 is placed at T_0_1 * T_1_2 and counts as verified.
   OptimizerStageOptions o;
+  o.mutual_placement_max_gap_m = 0.0;  // other rules under test
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   o.min_teammate_loops = 1;  // one loop verifies here (the evidence gate has its own test)
@@ -863,6 +876,7 @@ std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
 TEST(OptimizerStage, TurnsAPlacedTeammateHalfWayTowardTheHeadings) {
   for (const double weight : {0.0, 0.5}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.placement_heading_weight = weight;
     o.placement_heading_variance_ratio = 0.0;  // weight 0: no turn at all
     Pose2 T_0_1;
@@ -887,6 +901,7 @@ TEST(OptimizerStage, TurnsAPlacedTeammateTowardTheHeadingsAsFarAsItsLoopsLeaveTh
   const std::vector<std::pair<int, int>> whole{{0, 0}, {2, 3}, {4, 5}, {7, 7}, {0, 3}};
   for (const auto& [pairs, expected_fraction] : {std::pair{partial, 0.3}, std::pair{whole, 0.0}}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.placement_heading_variance_ratio = 2.0;
     Pose2 T_0_1;
     const auto T = PlaceWithHeadings(o, pairs, &T_0_1);
@@ -913,6 +928,7 @@ TEST(OptimizerStage, WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops) {
         Case{partial, 0.0, 4.5, 4.5582, false}, Case{partial, 0.0, 0.0, 4.5582, true},
         Case{whole, 2.0, 0.1, 0.0, true}}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.placement_heading_variance_ratio = c.ratio;
     o.max_rotation_lever_m = c.max_lever_m;
     Pose2 T_0_1;
@@ -928,6 +944,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   // registered against several own windows) do not place it; five over three distinct
   // keyframes of each robot do; when the filter withdraws them, the placement is withdrawn.
   OptimizerStageOptions o;
+  o.mutual_placement_max_gap_m = 0.0;  // other rules under test
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   OptimizerStage stage(o);
@@ -991,6 +1008,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnceItPlacedThisRobotTooAndTheyAgree) {
   // shared but not placed until robot 1 shares its own placement of robot 0, and placed only
   // when T_0_1 * T_1_0 moves the own keyframes by less than the gap.
   OptimizerStageOptions o;
+  o.mutual_placement_max_gap_m = 0.0;  // other rules under test
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   o.mutual_placement_max_gap_m = 2.0;
@@ -1037,6 +1055,7 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
                       double own_heading_rad = msgs::kUnknownHeading,
                       double mate_heading_rad = msgs::kUnknownHeading) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.max_map_miss_fraction = max_map_miss_fraction;
@@ -1125,6 +1144,7 @@ TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
   std::array<int, 2> optimized{};
   for (const bool warm : {false, true}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.warm_start = warm;
@@ -1186,6 +1206,7 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
   std::array<TeamEstimate, 2> wrong, undone;
   for (const bool warm : {false, true}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.warm_start = warm;
@@ -1243,6 +1264,7 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
 TEST(OptimizerStage, PgoHoldsTheFirstLoopsOfEachTeammateKeyframe) {
   for (const auto& [bound, held] : std::vector<std::pair<int, int>>{{0, 24}, {4, 12}, {1, 3}}) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.max_loops_per_teammate_keyframe = bound;
@@ -1274,6 +1296,7 @@ TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   // a quarter turn; unknown headings do not judge.
   const auto run = [](double own_heading_rad, double mate_heading_rad, double max_gap_rad) {
     OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
     o.robot_id = 0;
     o.optimize_period_s = 0.0;
     o.max_map_miss_fraction = 1.0;  // the headings alone

@@ -128,6 +128,10 @@ void TeamAgent::OnScanReply(const msgs::ScanReply& reply) {
   impl_->exchange.OnScanReply(reply);
 }
 
+std::vector<msgs::Heartbeat::Transform> TeamAgent::SharedTransforms() const {
+  return impl_->optimizer.SharedTransforms();
+}
+
 void TeamAgent::OnTeammateTransforms(const msgs::TeammateTransforms& transforms) {
   if (!impl_->Note(transforms.header)) return;
   impl_->matcher.OnTeammateTransforms(transforms);

@@ -442,7 +442,7 @@ struct OptimizerStageOptions {
   // different filters; the shared transforms then carry the placements that wait for this
   // (so that neither waits for the other), so it cannot be combined with
   // place_chained_teammates (std::invalid_argument).
-  double mutual_placement_max_gap_m = 0.0;
+  double mutual_placement_max_gap_m = 2.0;
   int max_teammate_keyframes = 20000;
   // The own trajectory enters the two-step PGO as a chain of its relative poses with these
   // sigmas per keyframe step. The reference's 0.1 m / 0.01 rad let true but imprecise loops

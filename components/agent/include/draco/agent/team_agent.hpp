@@ -104,6 +104,8 @@ class TeamAgent {
   void OnLoopClosures(const msgs::LoopClosureMessage& message);
   // A teammate's shared map-to-map estimates (heartbeats): placement and chained requests.
   void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);
+  // The own loop-verified map-to-map estimates to share (OptimizerStage::SharedTransforms).
+  std::vector<msgs::Heartbeat::Transform> SharedTransforms() const;
   void ForgetTeammate(int robot_id);
 
   Outbox Step(double now_s);
