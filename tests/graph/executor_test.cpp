@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <vector>
 
 #include "draco/graph/executor.hpp"
 #include "draco/graph/progress.hpp"
@@ -22,11 +23,25 @@ std::string ReadFile(const std::string& path) {
   return ss.str();
 }
 
+// The directories made by TempDir, removed when the test process exits.
+struct TempDirs {
+  std::vector<std::filesystem::path> made;
+  TempDirs() = default;
+  TempDirs(const TempDirs&) = delete;
+  TempDirs& operator=(const TempDirs&) = delete;
+  ~TempDirs() {
+    std::error_code ec;
+    for (const auto& dir : made) std::filesystem::remove_all(dir, ec);
+  }
+};
+
 std::string TempDir(const std::string& name) {
+  static TempDirs dirs;
   const auto dir = std::filesystem::temp_directory_path() /
                    ("draco_graph_test_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  dirs.made.push_back(dir);
   return dir.string();
 }
 
