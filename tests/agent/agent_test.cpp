@@ -1257,6 +1257,58 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
   }
 }
 
+// Loops that disagree by 0.3 m bend the global step's chain of teammate 1. With
+// rigid_teammate_trajectories its trajectory is its shared keyframe poses moved by
+// T_own_teammate (the fit of that chain); without, the bent chain. The placement is the same.
+TEST(OptimizerStage, PlacedTeammateIsItsLocalSlamMovedByThePlacement) {
+  std::array<TeamEstimate, 2> est;
+  msgs::KeyframePoses shared;
+  for (const bool rigid : {false, true}) {
+    OptimizerStageOptions o;
+    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
+    o.robot_id = 0;
+    o.optimize_period_s = 0.0;
+    o.rigid_teammate_trajectories = rigid;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    const TeammateOne mate(&stage);
+    shared = mate.poses;
+    std::vector<msgs::InterRobotLoop> loops;
+    const std::vector<std::pair<int, int>> pairs{{1, 0}, {3, 2}, {5, 4}, {7, 7}, {2, 1}, {6, 6}};
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    loops[2].T_ownkf_teammatekf.x_m += 0.3;
+    loops[3].T_ownkf_teammatekf.y_m -= 0.3;
+    msgs::TeamStepStats st;
+    stage.Step(20.0, loops, mate.matches, &st);
+    ASSERT_TRUE(st.optimized);
+    est[rigid] = stage.estimate();
+    ASSERT_EQ(est[rigid].trajectories.count(1), 1u);
+  }
+  const Pose2 a = est[0].T_own_teammate.at(1), b = est[1].T_own_teammate.at(1);
+  EXPECT_EQ(a.x_m, b.x_m);
+  EXPECT_EQ(a.y_m, b.y_m);
+  EXPECT_EQ(a.yaw_rad, b.yaw_rad);
+  EXPECT_NEAR(b.x_m, 5.0, 0.2);
+  EXPECT_NEAR(b.y_m, 1.0, 0.2);
+  double bent_m = 0.0;
+  for (const bool rigid : {false, true}) {
+    const auto& t = est[rigid].trajectories.at(1);
+    ASSERT_EQ(t.size(), shared.poses.size());
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      const Pose2 moved = reg::Compose(est[rigid].T_own_teammate.at(1), shared.poses[k].T_map_kf);
+      const double d = std::hypot(t[k].T_map_kf.x_m - moved.x_m, t[k].T_map_kf.y_m - moved.y_m);
+      if (rigid) {
+        EXPECT_LT(d, 1e-9) << k;
+        EXPECT_NEAR(std::remainder(t[k].T_map_kf.yaw_rad - moved.yaw_rad, 2 * M_PI), 0.0, 1e-9);
+      } else {
+        bent_m = std::max(bent_m, d);
+      }
+    }
+  }
+  EXPECT_GT(bent_m, 0.02);  // the bent chain is not a rigid copy
+}
+
 // Every own keyframe of a repeated pass tied to teammate keyframes 2, 4 and 6: 24 accepted
 // true loops. The PGO holds the first max_loops_per_teammate_keyframe of each teammate
 // keyframe (12 at 4, 3 at 1, all 24 at 0) and places the teammate at the truth either way;

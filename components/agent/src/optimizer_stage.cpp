@@ -656,6 +656,10 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     const auto g = guess(robot);
     const auto aligned = solved ? AlignSe2(local, moved) : std::nullopt;
     next.T_own_teammate[robot] = aligned ? *aligned : g.value_or(Pose2{});
+    if (aligned && options_.rigid_teammate_trajectories) {
+      for (std::size_t i = 0; i < traj.size(); ++i)
+        traj[i].T_map_kf = reg::Compose(*aligned, local[i]);
+    }
   }
   if (options_.mutual_placement_max_gap_m > 0.0) {
     // A loop-verified teammate stays out until it placed this robot and the two agree.

@@ -689,6 +689,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "fractions of the two missions so far the loops' keyframes do not span "
                        "(0: off)",
                 .min = 0.0});
+    spec.Param("rigid_teammate_trajectories", &o_.rigid_teammate_trajectories,
+               {.doc = "a placed teammate's trajectory is its local SLAM moved by the "
+                       "map-to-map estimate (false: the global step's bent chain)"});
     spec.Param("mutual_placement_max_gap_m", &o_.mutual_placement_max_gap_m,
                {.doc = "place a loop-verified teammate only once it placed this robot too and "
                        "T_own_mate * T_mate_own moves the own keyframes by an RMS below this "

@@ -435,6 +435,12 @@ struct OptimizerStageOptions {
   // evidence rules below; a teammate whose own map is wrong (a dead DVL) then cannot carry
   // its error into every robot's estimate.
   bool place_chained_teammates = false;
+  // A placed teammate's trajectory in the estimate is its local SLAM (its shared keyframe
+  // poses) moved by T_own_teammate, the rigid fit of the global step's solution, rather than
+  // that solution itself: the global step bends the teammate's chain toward its loops, whose
+  // errors (median about 0.2 m) exceed the local SLAM's between neighbouring keyframes.
+  // Decisions use T_own_teammate either way; only the trajectories differ.
+  bool rigid_teammate_trajectories = true;
   // Mutual placement (0: off). A teammate that passes the evidence rules enters the estimate
   // only once it has placed this robot too (its shared transform) and the two agree: the own
   // keyframes moved by T_own_mate * T_mate_own stay within this RMS distance. The two
