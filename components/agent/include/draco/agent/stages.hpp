@@ -261,8 +261,9 @@ struct ScanExchangeStageOptions {
   int max_scans_per_request = 20;
   // A served keyframe with fewer than selection.min_points points is sent with the points of
   // up to this many neighbours on each side (nearest first, in its frame by the local SLAM's
-  // poses) until it reaches min_points; 0: single keyframes only.
-  int serve_submap_keyframes = 0;
+  // poses) until it reaches min_points; 0: single keyframes only. Where the sonar returns a
+  // few points a ping, single keyframes are never served (docs/front-end.md).
+  int serve_submap_keyframes = 8;
   int max_teammate_keyframes = 20000;
   int max_teammate_scans = 400;
   // With both maps' absolute headings known: the ambiguity test probes only turns within this
