@@ -77,6 +77,14 @@ PY
 "$robot" --mission "$work/m" --robot charlie --out "$work/term" --domain "$domain" --quiet \
   >"$work/term.log" 2>&1 &
 pid=$!
+# Under load the start-up (loading the shared libraries) can outlast a fixed sleep, and a
+# SIGTERM before main() installs its handler kills the process: wait until the daemon catches
+# SIGTERM (bit 15 of SigCgt in /proc/PID/status), then let it run a while.
+for _ in $(seq 1 $((300 * factor))); do
+  cgt=$(awk '/^SigCgt:/ { print $2 }' "/proc/$pid/status" 2>/dev/null)
+  [ -n "$cgt" ] && (((16#$cgt >> 14) & 1)) && break
+  sleep 0.1
+done
 sleep "$(scaled 1.5)"
 kill -TERM $pid
 for _ in $(seq 1 $((50 * factor))); do kill -0 $pid 2>/dev/null || break; sleep 0.1; done
