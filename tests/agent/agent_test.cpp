@@ -836,6 +836,15 @@ struct TeammateOne {
     l.flags = msgs::kLoopAccepted;
     return l;
   }
+  // Loop() for each (own keyframe, teammate keyframe), ids first_id, first_id + 1, ...
+  std::vector<msgs::InterRobotLoop> Loops(const msgs::KeyframeTrajectory& own,
+                                          std::uint64_t first_id,
+                                          const std::vector<std::pair<int, int>>& pairs) const {
+    std::vector<msgs::InterRobotLoop> out;
+    for (std::size_t i = 0; i < pairs.size(); ++i)
+      out.push_back(Loop(own, first_id + i, pairs[i].first, pairs[i].second));
+    return out;
+  }
 };
 
 // Teammate 1 placed by loops (own keyframe, teammate keyframe) at T_0_1 (yaw 0.3), the maps'
@@ -858,9 +867,7 @@ std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
   header.robot_id = 1;
   header.incarnation = 1;
   stage.OnTeammateObjectMap(header, mate_map);
-  std::vector<msgs::InterRobotLoop> loops;
-  for (std::size_t i = 0; i < pairs.size(); ++i)
-    loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+  const std::vector<msgs::InterRobotLoop> loops = mate.Loops(traj, 11, pairs);
   msgs::TeamStepStats st;
   stage.Step(20.0, loops, mate.matches, &st);
   if (lever_m != nullptr) {
@@ -1152,10 +1159,8 @@ TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
     TeammateOne mate(&stage);
     mate.matches.guesses[1].match.T_a_b = {6.0, 0.2, 0.4};  // the loops move it to T_0_1
-    std::vector<msgs::InterRobotLoop> loops;
     const std::vector<std::pair<int, int>> pairs{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    std::vector<msgs::InterRobotLoop> loops = mate.Loops(traj, 11, pairs);
     loops[1].T_ownkf_teammatekf.x_m += 0.05;  // loops that disagree a little
     loops[3].T_ownkf_teammatekf.yaw_rad -= 0.01;
     msgs::TeamStepStats st;
@@ -1217,12 +1222,10 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
     const Pose2 T_0_1 = mate.T_0_1;
     const Pose2 T_wrong{T_0_1.x_m + 12.0, T_0_1.y_m, T_0_1.yaw_rad};
     mate.matches.guesses[1].match.T_a_b = T_wrong;  // the matcher took the shifted fit too
-    std::vector<msgs::InterRobotLoop> loops;
     mate.T_0_1 = T_wrong;
     const std::vector<std::pair<int, int>> old_pairs{{1, 2}, {3, 4}, {5, 6},
                                                      {1, 4}, {3, 6}, {7, 5}};
-    for (std::size_t i = 0; i < old_pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 11 + i, old_pairs[i].first, old_pairs[i].second));
+    std::vector<msgs::InterRobotLoop> loops = mate.Loops(traj, 11, old_pairs);
     msgs::TeamStepStats st;
     stage.Step(20.0, loops, mate.matches, &st);
     ASSERT_TRUE(st.optimized);
@@ -1233,8 +1236,7 @@ TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
     mate.matches.guesses[1].match_count = 2;
     const std::vector<std::pair<int, int>> new_pairs{{1, 2}, {3, 2}, {5, 2},
                                                      {3, 4}, {5, 6}, {7, 6}};
-    for (std::size_t i = 0; i < new_pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 21 + i, new_pairs[i].first, new_pairs[i].second));
+    for (const auto& l : mate.Loops(traj, 21, new_pairs)) loops.push_back(l);
     st = {};
     stage.Step(40.0, loops, mate.matches, &st);
     ASSERT_TRUE(st.optimized);
@@ -1273,10 +1275,8 @@ TEST(OptimizerStage, PlacedTeammateIsItsLocalSlamMovedByThePlacement) {
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
     const TeammateOne mate(&stage);
     shared = mate.poses;
-    std::vector<msgs::InterRobotLoop> loops;
     const std::vector<std::pair<int, int>> pairs{{1, 0}, {3, 2}, {5, 4}, {7, 7}, {2, 1}, {6, 6}};
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      loops.push_back(mate.Loop(traj, 11 + i, pairs[i].first, pairs[i].second));
+    std::vector<msgs::InterRobotLoop> loops = mate.Loops(traj, 11, pairs);
     loops[2].T_ownkf_teammatekf.x_m += 0.3;
     loops[3].T_ownkf_teammatekf.y_m -= 0.3;
     msgs::TeamStepStats st;
