@@ -804,6 +804,15 @@ TEST(OptimizerStage, PlacesARobotThroughATeammatesSharedTransform) {
   EXPECT_EQ(stage.estimate().trajectories.count(2), 0u);
 }
 
+// Robot 0's optimiser, a PGO every step, mutual placement off (the tests of other rules).
+OptimizerStageOptions OtherRulesOptions() {
+  OptimizerStageOptions o;
+  o.mutual_placement_max_gap_m = 0.0;
+  o.robot_id = 0;
+  o.optimize_period_s = 0.0;
+  return o;
+}
+
 // Teammate 1: eight keyframes along its map's y axis, matched at T_0_1; Loop() gives the
 // loop between an own keyframe and one of its as the truth has it, accepted.
 struct TeammateOne {
@@ -1061,10 +1070,7 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   const auto run = [](double max_map_miss_fraction, bool contradict,
                       double own_heading_rad = msgs::kUnknownHeading,
                       double mate_heading_rad = msgs::kUnknownHeading) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.max_map_miss_fraction = max_map_miss_fraction;
     auto stage = std::make_unique<OptimizerStage>(o);
     // Objects in the own map frame, in front of the own keyframes (x 0..14, facing +x), each
@@ -1150,10 +1156,7 @@ TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
   std::array<TeamEstimate, 2> first, grown;
   std::array<int, 2> optimized{};
   for (const bool warm : {false, true}) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.warm_start = warm;
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
@@ -1210,10 +1213,7 @@ TEST(OptimizerStage, WarmStartGivesTheColdEstimates) {
 TEST(OptimizerStage, WarmStartIsDroppedWhenTheAcceptedLoopsChange) {
   std::array<TeamEstimate, 2> wrong, undone;
   for (const bool warm : {false, true}) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.warm_start = warm;
     o.competitor_ratio = 0.0;  // the withdrawn loops would contest the new ones: not here
     OptimizerStage stage(o);
@@ -1266,10 +1266,7 @@ TEST(OptimizerStage, PlacedTeammateIsItsLocalSlamMovedByThePlacement) {
   std::array<TeamEstimate, 2> est;
   msgs::KeyframePoses shared;
   for (const bool rigid : {false, true}) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.rigid_teammate_trajectories = rigid;
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
@@ -1315,10 +1312,7 @@ TEST(OptimizerStage, PlacedTeammateIsItsLocalSlamMovedByThePlacement) {
 // the placement evidence counts every accepted loop, so one loop a keyframe still places it.
 TEST(OptimizerStage, PgoHoldsTheFirstLoopsOfEachTeammateKeyframe) {
   for (const auto& [bound, held] : std::vector<std::pair<int, int>>{{0, 24}, {4, 12}, {1, 3}}) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.max_loops_per_teammate_keyframe = bound;
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
@@ -1347,10 +1341,7 @@ TEST(OptimizerStage, AbsoluteHeadingsKeepATurnedPlacementOut) {
   // teammate's map is turned the other way (a grid flipped 180 deg) keep it out, and so does
   // a quarter turn; unknown headings do not judge.
   const auto run = [](double own_heading_rad, double mate_heading_rad, double max_gap_rad) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.robot_id = 0;
-    o.optimize_period_s = 0.0;
+    OptimizerStageOptions o = OtherRulesOptions();
     o.max_map_miss_fraction = 1.0;  // the headings alone
     o.max_heading_gap_rad = max_gap_rad;
     auto stage = std::make_unique<OptimizerStage>(o);
