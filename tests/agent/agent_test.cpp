@@ -861,7 +861,7 @@ struct TeammateOne {
 // lever_m (optional): the step's rotation lever for it, -1 when not computed.
 std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
                                        const std::vector<std::pair<int, int>>& pairs, Pose2* T_0_1,
-                                       double* lever_m = nullptr) {
+                                       double* lever_m = nullptr, std::string* held = nullptr) {
   o.robot_id = 0;
   o.optimize_period_s = 0.0;
   OptimizerStage stage(o);
@@ -882,6 +882,10 @@ std::optional<Pose2> PlaceWithHeadings(OptimizerStageOptions o,
   if (lever_m != nullptr) {
     const auto& levers = stage.estimate().rotation_lever_m;
     *lever_m = levers.count(1) ? levers.at(1) : -1.0;
+  }
+  if (held != nullptr) {
+    const auto& h = stage.estimate().held;
+    *held = h.count(1) ? h.at(1) : "";
   }
   if (!stage.estimate().trajectories.count(1)) return std::nullopt;
   return stage.estimate().T_own_teammate.at(1);
@@ -949,9 +953,11 @@ TEST(OptimizerStage, WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops) {
     o.max_rotation_lever_m = c.max_lever_m;
     Pose2 T_0_1;
     double lever_m = -1.0;
-    const auto T = PlaceWithHeadings(o, c.pairs, &T_0_1, &lever_m);
+    std::string held;
+    const auto T = PlaceWithHeadings(o, c.pairs, &T_0_1, &lever_m, &held);
     EXPECT_NEAR(lever_m, c.lever_m, 1e-3) << c.ratio << " " << c.max_lever_m;
     EXPECT_EQ(T.has_value(), c.placed) << c.ratio << " " << c.max_lever_m;
+    EXPECT_EQ(held, c.placed ? "" : "lever") << c.ratio << " " << c.max_lever_m;
   }
 }
 
@@ -977,11 +983,13 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   msgs::TeamStepStats st;
   stage.Step(10.0, one_scan, matches, &st);
   EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  EXPECT_EQ(stage.estimate().held.at(1), "keyframes");
   EXPECT_TRUE(stage.SharedTransforms().empty());
   const std::vector<msgs::InterRobotLoop> independent{
       loop(11, 1, 2), loop(12, 3, 4), loop(13, 5, 6), loop(14, 1, 4), loop(15, 3, 6)};
   stage.Step(20.0, independent, matches, &st);
   ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+  EXPECT_EQ(stage.estimate().held.count(1), 0u);
   const Pose2 T = stage.estimate().T_own_teammate.at(1);
   EXPECT_NEAR(T.x_m, T_0_1.x_m, 1e-3);
   EXPECT_NEAR(T.y_m, T_0_1.y_m, 1e-3);
@@ -1000,6 +1008,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
   }
   stage.Step(25.0, contested, matches, &st);
   EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  EXPECT_EQ(stage.estimate().held.at(1), "rival");
   // Scattered rejected candidates (no two agree) do not contest it.
   auto scattered = independent;
   for (int k = 0; k < 3; ++k) {
@@ -1037,6 +1046,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnceItPlacedThisRobotTooAndTheyAgree) {
   msgs::TeamStepStats st;
   stage.Step(10.0, loops, mate.matches, &st);
   EXPECT_EQ(stage.estimate().trajectories.count(1), 0u);
+  EXPECT_EQ(stage.estimate().held.at(1), "mutual");
   ASSERT_EQ(stage.SharedTransforms().size(), 1u);  // shared while it waits: no deadlock
   EXPECT_NEAR(stage.SharedTransforms()[0].T_sender_robot.x_m, mate.T_0_1.x_m, 1e-3);
   const auto share = [&](const Pose2& T_1_0) {
@@ -1056,6 +1066,7 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnceItPlacedThisRobotTooAndTheyAgree) {
   share(reg::Compose(Pose2{1.0, 0.0, 0.0}, T_1_0));
   stage.Step(30.0, loops, mate.matches, &st);
   ASSERT_EQ(stage.estimate().trajectories.count(1), 1u);
+  EXPECT_EQ(stage.estimate().held.count(1), 0u);
   EXPECT_NEAR(stage.estimate().T_own_teammate.at(1).x_m, mate.T_0_1.x_m, 1e-3);
   // The two cannot be combined.
   o.place_chained_teammates = true;

@@ -430,22 +430,43 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     }
     estimate_.map_checks.clear();
     estimate_.rotation_lever_m.clear();
+    estimate_.held.clear();
     for (const auto& [robot, e] : evidence) {
-      if (e.loops < options_.min_teammate_loops ||
-          static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
-          static_cast<int>(e.mate_kfs.size()) < options_.min_distinct_keyframes ||
-          Contested(robot, candidates)) {
+      auto& held = estimate_.held[robot];
+      if (e.loops < options_.min_teammate_loops) {
+        held = "loops";
+        continue;
+      }
+      if (static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
+          static_cast<int>(e.mate_kfs.size()) < options_.min_distinct_keyframes) {
+        held = "keyframes";
+        continue;
+      }
+      if (Contested(robot, candidates)) {
+        held = "rival";
         continue;
       }
       if (options_.max_map_miss_fraction < 1.0 || options_.max_heading_gap_rad > 0.0) {
         if (const auto check = CheckMaps(robot, candidates, UpdateOwnView())) {
           estimate_.map_checks[robot] = *check;
-          if (check->contradicted) continue;
+          if (check->contradicted) {
+            held = "map";
+            continue;
+          }
         }
       }
       const double lever_m = RotationLever(robot, candidates);
       estimate_.rotation_lever_m[robot] = lever_m;
-      if (options_.max_rotation_lever_m > 0.0 && lever_m > options_.max_rotation_lever_m) continue;
+      if (options_.max_rotation_lever_m > 0.0 && lever_m > options_.max_rotation_lever_m) {
+        held = "lever";
+        continue;
+      }
+      // Still waiting for mutual placement (a step that does not solve keeps it so).
+      if (unconfirmed_.count(robot)) {
+        held = "mutual";
+      } else {
+        estimate_.held.erase(robot);
+      }
       loop_verified.insert(robot);
     }
   }
@@ -635,6 +656,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   next.time_s = now_s;
   next.map_checks = std::move(estimate_.map_checks);
   next.rotation_lever_m = std::move(estimate_.rotation_lever_m);
+  next.held = std::move(estimate_.held);
   next.loops_in_pgo = static_cast<int>(problem.loops.size());
   // Trajectories with real keyframes only; map-to-map estimates.
   for (const auto& [robot, poses] : placed) {
@@ -668,8 +690,12 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       const auto it = next.T_own_teammate.find(robot);
       if (it == next.T_own_teammate.end()) continue;
       const double gap_m = MutualGap(robot, it->second, own_poses, own_real);
-      if (gap_m <= options_.mutual_placement_max_gap_m) continue;
+      if (gap_m <= options_.mutual_placement_max_gap_m) {
+        next.held.erase(robot);
+        continue;
+      }
       unconfirmed_[robot] = it->second;
+      next.held[robot] = "mutual";
       next.T_own_teammate.erase(it);
       next.trajectories.erase(robot);
     }

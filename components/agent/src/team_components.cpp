@@ -765,6 +765,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
       steps_.push_back(st);
       LogPlacements();
       LogMapChecks();
+      LogHolds();
       if (st.optimized) {
         const auto& est = stage_->estimate();
         estimate_out_.PublishAt(l.stamp,
@@ -808,6 +809,7 @@ class TwoStepOptimizerComponent final : public graph::Component {
     files.push_back({"agent_steps.csv", steps});
     files.push_back({"placements.csv", placements_});
     files.push_back({"map_checks.csv", map_checks_});
+    files.push_back({"holds.csv", holds_});
     return WriteFiles(ctx, prefix_, files);
   }
 
@@ -880,6 +882,30 @@ class TwoStepOptimizerComponent final : public graph::Component {
     }
   }
 
+  // A row per change of why a teammate with accepted loops is not placed (an empty reason:
+  // no longer held).
+  void LogHolds() {
+    const auto& est = stage_->estimate();
+    std::map<int, std::string> now = est.held;
+    for (const auto& [id, reason] : held_) {
+      if (!now.count(id)) now[id] = "";
+    }
+    for (const auto& [id, reason] : now) {
+      const auto it = held_.find(id);
+      if ((it == held_.end() && reason.empty()) || (it != held_.end() && it->second == reason))
+        continue;
+      char line[200];
+      std::snprintf(line, sizeof line, "%.3f,%s,%s\n", est.time_s, Name(id).c_str(),
+                    reason.c_str());
+      holds_ += line;
+      if (reason.empty()) {
+        held_.erase(id);
+      } else {
+        held_[id] = reason;
+      }
+    }
+  }
+
   std::string Name(int id) const {
     if (id >= 0 && id < static_cast<int>(team_names_.size())) return team_names_[id];
     return "robot" + std::to_string(id);
@@ -898,6 +924,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
   std::string map_checks_ =
       "time_s,teammate,x_m,y_m,yaw_rad,mate_objects_expected,mate_objects_on_own_points,"
       "mate_objects_met,own_objects_expected,own_objects_met,contradicted,heading_gap_rad\n";
+  std::map<int, std::string> held_;  // last logged
+  std::string holds_ = "time_s,teammate,held\n";
   Absorber in_;
   graph::In<msgs::TeamLoops> loops_;
   graph::In<msgs::Keyframe> keyframe_;

@@ -34,6 +34,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -553,6 +554,11 @@ struct TeamEstimate {
   // The rotation lever (OptimizerStageOptions::max_rotation_lever_m) of each teammate whose
   // loops pass the evidence rules, this step.
   std::map<int, double> rotation_lever_m;
+  // Why each teammate with accepted loops is not placed, this step: "loops" (fewer than
+  // min_teammate_loops), "keyframes" (min_distinct_keyframes), "rival" (competitor_ratio),
+  // "map" (the map check contradicts it), "lever" (max_rotation_lever_m), "mutual"
+  // (mutual_placement_max_gap_m: not placed by it, or the two disagree).
+  std::map<int, std::string> held;
   int loops_in_pgo = 0;  // accepted loops the problem held (max_loops_per_teammate_keyframe)
 };
 
