@@ -12,7 +12,8 @@ are read against the ground truth, and the pair is put in the first stage that s
                                and 10 deg of the true map-to-map transform
   registration: no candidate   right matches, but no candidate loop
   filter: none accepted        candidates, none accepted by the consistency filter
-  optimiser: rules             accepted loops, the optimiser's rules did not place it
+  optimiser: rules (R)         accepted loops, the optimiser's rules did not place it; R the
+                               last reason of <own>.holds.csv (lever, mutual, ...) when present
   placed wrong                 placed, and wrong at the end
 
 The true transform is the one the judge uses (docs/safe-merges.md): each robot's local-SLAM
@@ -149,6 +150,10 @@ def main():
             stage = "filter: none accepted"
         else:
             stage = "optimiser: rules"
+            holds = f"{d}/{own}.holds.csv"
+            if os.path.exists(holds):
+                last = [r["held"] for r in rows(holds) if r["teammate"] == mate]
+                stage += f" ({last[-1] if last and last[-1] else 'not held'})"
         counts[stage] += 1
         reg_statuses = dict(collections.Counter(r["status"] for r in regs))
         print(f"{p['world']:9s} {own}->{mate}: {stage:28s} matches {dict(statuses)} right "
