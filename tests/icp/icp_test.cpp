@@ -57,6 +57,48 @@ TEST(KdTree2, MatchesBruteForce) {
   }
 }
 
+// The tree keeps its own copy of the points, and with ties (a 0.5 m lattice, every point
+// twice, half the queries on cell midpoints) it still returns a nearest point, its exact
+// squared distance, and -1 with the bound itself when nothing lies within the bound.
+TEST(KdTree2, OwnCopyAndTies) {
+  std::mt19937_64 rng(5);
+  std::uniform_int_distribution<int> cell(-12, 12);
+  Cloud2 pts;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector2d p(0.5 * cell(rng), 0.5 * cell(rng));
+    pts.push_back(p);
+    pts.push_back(p);
+  }
+  const Cloud2 copy = pts;
+  const KdTree2 tree(pts);
+  pts.assign(pts.size(), Eigen::Vector2d(1e9, 1e9));  // the tree must not read these
+  std::uniform_real_distribution<double> u(-7.0, 7.0);
+  int ties = 0;
+  for (int q = 0; q < 2000; ++q) {
+    Eigen::Vector2d x(u(rng), u(rng));
+    if (q % 2 == 0)
+      x = {0.25 + 0.5 * std::floor(2.0 * x.x()), 0.25 + 0.5 * std::floor(2.0 * x.y())};
+    double min2 = 1e300;
+    for (const auto& p : copy) min2 = std::min(min2, (p - x).squaredNorm());
+    int at_min = 0;
+    for (const auto& p : copy) at_min += (p - x).squaredNorm() == min2;
+    ties += at_min > 1;
+    for (const double max2 : {1e300, 0.3, 0.0625}) {
+      double d2 = -1.0;
+      const int j = tree.Nearest(x, max2, &d2);
+      if (min2 <= max2) {
+        ASSERT_GE(j, 0);
+        EXPECT_EQ((copy[static_cast<std::size_t>(j)] - x).squaredNorm(), min2);
+        EXPECT_EQ(d2, min2);
+      } else {
+        EXPECT_EQ(j, -1);
+        EXPECT_EQ(d2, max2);
+      }
+    }
+  }
+  EXPECT_GT(ties, 1000);  // the lattice does make ties
+}
+
 class IcpRecovers : public ::testing::TestWithParam<Metric> {};
 
 TEST_P(IcpRecovers, KnownTransformWithNoiseAndOutliers) {

@@ -1,5 +1,6 @@
-// Static 2D kd-tree (see kdtree2.hpp). The tree is implicit in the index array: a range
-// [lo, hi) longer than a leaf is split at mid = (lo + hi) / 2.
+// Static 2D kd-tree (see kdtree2.hpp). The tree is implicit in the position array: a range
+// [lo, hi) longer than a leaf is split at mid = (lo + hi) / 2, and the points are stored in
+// that order, so a leaf is a contiguous run of memory.
 #include "draco/icp/kdtree2.hpp"
 
 #include <algorithm>
@@ -12,16 +13,19 @@ constexpr int kLeaf = 8;
 }
 
 void KdTree2::Build(const Cloud2& points) {
-  points_ = &points;
+  const int n = static_cast<int>(points.size());
   index_.resize(points.size());
   std::iota(index_.begin(), index_.end(), 0);
   dim_.assign(points.size(), 0);
-  BuildRange(0, static_cast<int>(points.size()));
+  BuildRange(points, 0, n);
+  sorted_.resize(points.size());
+  for (int i = 0; i < n; ++i) {
+    sorted_[static_cast<std::size_t>(i)] = points[static_cast<std::size_t>(index_[i])];
+  }
 }
 
-void KdTree2::BuildRange(int lo, int hi) {
+void KdTree2::BuildRange(const Cloud2& p, int lo, int hi) {
   if (hi - lo <= kLeaf) return;
-  const Cloud2& p = *points_;
   Eigen::Vector2d mn = p[index_[lo]], mx = mn;
   for (int i = lo + 1; i < hi; ++i) {
     mn = mn.cwiseMin(p[index_[i]]);
@@ -32,38 +36,42 @@ void KdTree2::BuildRange(int lo, int hi) {
   std::nth_element(index_.begin() + lo, index_.begin() + mid, index_.begin() + hi,
                    [&](int a, int b) { return p[a][d] < p[b][d]; });
   dim_[mid] = static_cast<std::uint8_t>(d);
-  BuildRange(lo, mid);
-  BuildRange(mid + 1, hi);
+  BuildRange(p, lo, mid);
+  BuildRange(p, mid + 1, hi);
 }
 
+// Visits the points in a fixed order (each node's median, then the child on q's side, then
+// the other one unless the splitting line is farther than the best so far) and keeps the
+// last point at the smallest distance.
 void KdTree2::NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2,
                            int* best) const {
-  const Cloud2& p = *points_;
-  if (hi - lo <= kLeaf) {
-    for (int i = lo; i < hi; ++i) {
-      const double d2 = (p[index_[i]] - q).squaredNorm();
-      if (d2 <= *best2) {
-        *best2 = d2;
-        *best = index_[i];
-      }
+  const Eigen::Vector2d* p = sorted_.data();
+  while (hi - lo > kLeaf) {
+    const int mid = (lo + hi) / 2;
+    const int d = dim_[static_cast<std::size_t>(mid)];
+    const Eigen::Vector2d& m = p[mid];
+    const double diff = q[d] - m[d];
+    const double d2 = (m - q).squaredNorm();
+    if (d2 <= *best2) {
+      *best2 = d2;
+      *best = mid;
     }
-    return;
+    if (diff < 0.0) {
+      NearestRange(lo, mid, q, best2, best);
+      if (!(diff * diff <= *best2)) return;
+      lo = mid + 1;  // the far side, as a loop
+    } else {
+      NearestRange(mid + 1, hi, q, best2, best);
+      if (!(diff * diff <= *best2)) return;
+      hi = mid;
+    }
   }
-  const int mid = (lo + hi) / 2;
-  const int d = dim_[mid];
-  const Eigen::Vector2d& m = p[index_[mid]];
-  const double diff = q[d] - m[d];
-  const double d2 = (m - q).squaredNorm();
-  if (d2 <= *best2) {
-    *best2 = d2;
-    *best = index_[mid];
-  }
-  if (diff < 0.0) {
-    NearestRange(lo, mid, q, best2, best);
-    if (diff * diff <= *best2) NearestRange(mid + 1, hi, q, best2, best);
-  } else {
-    NearestRange(mid + 1, hi, q, best2, best);
-    if (diff * diff <= *best2) NearestRange(lo, mid, q, best2, best);
+  for (int i = lo; i < hi; ++i) {
+    const double d2 = (p[i] - q).squaredNorm();
+    if (d2 <= *best2) {
+      *best2 = d2;
+      *best = i;
+    }
   }
 }
 
@@ -72,17 +80,18 @@ int KdTree2::Nearest(const Eigen::Vector2d& q, double max_distance2, double* dis
   double best2 = max_distance2;
   if (!index_.empty()) NearestRange(0, static_cast<int>(index_.size()), q, &best2, &best);
   if (distance2 != nullptr) *distance2 = best2;
-  return best;
+  return best < 0 ? -1 : index_[static_cast<std::size_t>(best)];
 }
 
 void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const {
   // Small k: a sorted list of (distance2, index), pruned against its worst member.
   std::vector<std::pair<double, int>> best;
   best.reserve(k + 1);
-  const Cloud2& p = *points_;
-  auto offer = [&](int idx) {
-    const double d2 = (p[idx] - q).squaredNorm();
+  const Eigen::Vector2d* p = sorted_.data();
+  auto offer = [&](int pos) {
+    const double d2 = (p[pos] - q).squaredNorm();
     if (static_cast<int>(best.size()) == k && d2 >= best.back().first) return;
+    const int idx = index_[static_cast<std::size_t>(pos)];
     auto it = std::upper_bound(best.begin(), best.end(), std::make_pair(d2, idx));
     best.insert(it, {d2, idx});
     if (static_cast<int>(best.size()) > k) best.pop_back();
@@ -90,13 +99,13 @@ void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indice
   auto worst = [&] { return static_cast<int>(best.size()) < k ? 1e300 : best.back().first; };
   auto rec = [&](auto&& self, int lo, int hi) -> void {
     if (hi - lo <= kLeaf) {
-      for (int i = lo; i < hi; ++i) offer(index_[i]);
+      for (int i = lo; i < hi; ++i) offer(i);
       return;
     }
     const int mid = (lo + hi) / 2;
-    const int d = dim_[mid];
-    const double diff = q[d] - p[index_[mid]][d];
-    offer(index_[mid]);
+    const int d = dim_[static_cast<std::size_t>(mid)];
+    const double diff = q[d] - p[mid][d];
+    offer(mid);
     if (diff < 0.0) {
       self(self, lo, mid);
       if (diff * diff < worst()) self(self, mid + 1, hi);

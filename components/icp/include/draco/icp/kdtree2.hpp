@@ -14,21 +14,21 @@ class KdTree2 {
  public:
   KdTree2() = default;
   explicit KdTree2(const Cloud2& points) { Build(points); }
-  // Keeps a pointer to `points`: they must outlive the tree and not change.
+  // Copies the points (in tree order): `points` may change or go afterwards.
   void Build(const Cloud2& points);
 
   // Index of the nearest point with squared distance <= max_distance2 (and the squared
-  // distance), or -1.
+  // distance), or -1. Among points at the same distance the answer is fixed by the tree.
   int Nearest(const Eigen::Vector2d& q, double max_distance2, double* distance2) const;
   // Up to k nearest indices, closest first.
   void KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const;
   std::size_t size() const { return index_.size(); }
 
  private:
-  void BuildRange(int lo, int hi);
+  void BuildRange(const Cloud2& points, int lo, int hi);
   void NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2, int* best) const;
-  const Cloud2* points_ = nullptr;
-  std::vector<int> index_;
+  Cloud2 sorted_;                  // the points in tree order
+  std::vector<int> index_;         // tree position -> index in the cloud
   std::vector<std::uint8_t> dim_;  // split axis of the node whose median sits at position i
 };
 
