@@ -76,6 +76,17 @@ void BM_NearestKdTree(benchmark::State& state) {
 }
 BENCHMARK(BM_NearestKdTree)->Unit(benchmark::kMicrosecond);
 
+// Building the tree over a registration-sized target (the scene, 2,000 points).
+void BM_KdTreeBuild(benchmark::State& state) {
+  std::mt19937_64 rng(2);
+  const Cloud2 target = draco::icp::testing::Scene(rng, 2000);
+  for (auto _ : state) {
+    const draco::icp::KdTree2 tree(target);
+    benchmark::DoNotOptimize(tree.size());
+  }
+}
+BENCHMARK(BM_KdTreeBuild)->Unit(benchmark::kMicrosecond);
+
 void BM_NearestBruteForce(benchmark::State& state) {
   const Scans s = MakeScans();
   for (auto _ : state) {

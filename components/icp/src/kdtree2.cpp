@@ -4,7 +4,6 @@
 #include "draco/icp/kdtree2.hpp"
 
 #include <algorithm>
-#include <numeric>
 #include <utility>
 
 namespace draco::icp {
@@ -13,31 +12,36 @@ constexpr int kLeaf = 8;
 }
 
 void KdTree2::Build(const Cloud2& points) {
-  const int n = static_cast<int>(points.size());
-  index_.resize(points.size());
-  std::iota(index_.begin(), index_.end(), 0);
+  // The median splits move (point, index) records, so the comparisons read memory in order;
+  // std::nth_element sees the same comparisons as on an index array and so leaves the same
+  // arrangement.
+  std::vector<Node> nodes(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) nodes[i] = {points[i], static_cast<int>(i)};
   dim_.assign(points.size(), 0);
-  BuildRange(points, 0, n);
+  BuildRange(&nodes, 0, static_cast<int>(points.size()));
   sorted_.resize(points.size());
-  for (int i = 0; i < n; ++i) {
-    sorted_[static_cast<std::size_t>(i)] = points[static_cast<std::size_t>(index_[i])];
+  index_.resize(points.size());
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    sorted_[i] = nodes[i].p;
+    index_[i] = nodes[i].index;
   }
 }
 
-void KdTree2::BuildRange(const Cloud2& p, int lo, int hi) {
+void KdTree2::BuildRange(std::vector<Node>* nodes, int lo, int hi) {
   if (hi - lo <= kLeaf) return;
-  Eigen::Vector2d mn = p[index_[lo]], mx = mn;
+  Node* n = nodes->data();
+  Eigen::Vector2d mn = n[lo].p, mx = mn;
   for (int i = lo + 1; i < hi; ++i) {
-    mn = mn.cwiseMin(p[index_[i]]);
-    mx = mx.cwiseMax(p[index_[i]]);
+    mn = mn.cwiseMin(n[i].p);
+    mx = mx.cwiseMax(n[i].p);
   }
   const int d = (mx.x() - mn.x()) >= (mx.y() - mn.y()) ? 0 : 1;
   const int mid = (lo + hi) / 2;
-  std::nth_element(index_.begin() + lo, index_.begin() + mid, index_.begin() + hi,
-                   [&](int a, int b) { return p[a][d] < p[b][d]; });
-  dim_[mid] = static_cast<std::uint8_t>(d);
-  BuildRange(p, lo, mid);
-  BuildRange(p, mid + 1, hi);
+  std::nth_element(n + lo, n + mid, n + hi,
+                   [d](const Node& a, const Node& b) { return a.p[d] < b.p[d]; });
+  dim_[static_cast<std::size_t>(mid)] = static_cast<std::uint8_t>(d);
+  BuildRange(nodes, lo, mid);
+  BuildRange(nodes, mid + 1, hi);
 }
 
 // Visits the points in a fixed order (each node's median, then the child on q's side, then

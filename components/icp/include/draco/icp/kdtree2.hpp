@@ -25,7 +25,11 @@ class KdTree2 {
   std::size_t size() const { return index_.size(); }
 
  private:
-  void BuildRange(const Cloud2& points, int lo, int hi);
+  struct Node {
+    Eigen::Vector2d p;
+    int index;
+  };
+  void BuildRange(std::vector<Node>* nodes, int lo, int hi);
   void NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2, int* best) const;
   Cloud2 sorted_;                  // the points in tree order
   std::vector<int> index_;         // tree position -> index in the cloud
