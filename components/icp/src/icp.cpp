@@ -231,6 +231,15 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
   // Residuals and covariance on the final correspondences.
   double sum2 = 0.0, line2 = 0.0;
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  const double m = static_cast<double>(pairs.size());
+  result.correspondences = static_cast<int>(pairs.size());
+  if (!o.covariance) {
+    for (const Pair& p : pairs) sum2 += (moved[p.source] - tp[p.target]).squaredNorm();
+    result.rmse_m = std::sqrt(sum2 / m);
+    result.overlap_ratio =
+        OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
+    return result;
+  }
   for (const Pair& p : pairs) {
     const Eigen::Vector2d& n = target.Normal(p.target, o.normal_neighbors);
     const Eigen::Vector2d e = moved[p.source] - tp[p.target];
@@ -244,8 +253,6 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
     const Eigen::Vector3d J(nr.x(), nr.y(), n.dot(rsp));
     H += J * J.transpose();
   }
-  const double m = static_cast<double>(pairs.size());
-  result.correspondences = static_cast<int>(pairs.size());
   result.rmse_m = std::sqrt(sum2 / m);
   const double sigma2 =
       std::max(line2 / std::max(m - 3.0, 1.0), o.min_residual_sigma_m * o.min_residual_sigma_m);

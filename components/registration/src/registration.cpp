@@ -220,11 +220,20 @@ bool Ambiguous(const icp::Cloud2& source, icp::IcpTarget& target, const Registra
     }
   }
   const double d = o.ambiguity_overlap_distance_m;
-  const double needed = o.ambiguity_ratio * icp::OverlapRatio(source, target.tree(), best, d);
+  // The re-runs need the pose, validity and overlap only; at the ICP's own overlap distance
+  // (the default) its overlap is the one asked for.
+  icp::IcpOptions again = o.icp;
+  again.covariance = false;
+  const bool same_distance = d == o.icp.overlap_distance_m;
+  const double needed =
+      o.ambiguity_ratio * (same_distance ? result->icp.overlap_ratio
+                                         : icp::OverlapRatio(source, target.tree(), best, d));
   for (const Pose2& seed : seeds) {
-    icp::IcpResult r = icp::AlignIcp(source, target, seed, o.icp);
+    icp::IcpResult r = icp::AlignIcp(source, target, seed, again);
     if (!r.valid) continue;
-    r.overlap_ratio = icp::OverlapRatio(source, target.tree(), r.T_target_source, d);
+    if (!same_distance) {
+      r.overlap_ratio = icp::OverlapRatio(source, target.tree(), r.T_target_source, d);
+    }
     const bool distinct =
         std::hypot(r.T_target_source.x_m - best.x_m, r.T_target_source.y_m - best.y_m) >
             o.ambiguity_distinct_m ||

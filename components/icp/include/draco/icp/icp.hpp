@@ -72,6 +72,9 @@ struct IcpOptions {
   int normal_neighbors = 6;
   double min_residual_sigma_m = 0.01;
   double information_regularization = 1e-6;
+  // false: IcpResult::covariance is left zero (no target normals, no information matrix),
+  // for callers that use the pose, validity and overlap only; every other field is the same.
+  bool covariance = true;
   // PCL back ends only.
   double ndt_resolution_m = 2.0;  // kPclNdt voxel size
   int gicp_neighbors = 10;        // kPclGicp: neighbours of a point's local line
@@ -89,7 +92,7 @@ struct IcpResult {
   msgs::Pose2 T_target_source;
   // Covariance of a right perturbation of T_target_source (x, y, yaw in the source frame):
   // sigma^2 (J^T J + eps I)^-1 with point-to-line Jacobians on the final correspondences
-  // and sigma^2 their residual variance.
+  // and sigma^2 their residual variance (zero with IcpOptions::covariance false).
   msgs::Covariance3 covariance{};
   bool converged = false;  // the convergence test passed within max_iterations
   bool valid = false;      // enough correspondences in every iteration
