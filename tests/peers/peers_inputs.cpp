@@ -18,7 +18,9 @@
 //            every ordered robot pair.
 //   icp/     sequential scan pairs (each keyframe against keyframes k-3 .. k-1 placed by
 //            ground truth, seeded by dead reckoning, as registration_backends_bench);
-//            draco: AlignIcp (point-to-point, defaults), kd-tree build included.
+//            draco: AlignIcp (point-to-point, defaults), kd-tree build included; again
+//            without the covariance (IcpOptions::covariance false: pose, validity and
+//            overlap, the work the reference does), item icp_pose.
 //   gcm/     inter-robot loop candidates of the first robot (accepted window-3
 //            registrations against its matched teammates, plus as many random wrong loops),
 //            the keyframe poses and map transforms; draco: ConsistencyFilter (GCM, first-loop
@@ -380,6 +382,27 @@ int main(int argc, char** argv) {
       }
       std::fprintf(times.get(), "icp,%zu,%.6f\n", seq.size(), ms);
       std::printf("icp: %zu pairs, draco %.3f ms\n", seq.size(), ms);
+      icp::IcpOptions pose_only = io;
+      pose_only.covariance = false;
+      std::vector<icp::IcpResult> poses(seq.size());
+      const double pose_ms = BestMs(repeats, [&] {
+        for (std::size_t i = 0; i < seq.size(); ++i) {
+          poses[i] = icp::AlignIcp(seq[i].source, seq[i].target, seq[i].seed, pose_only);
+        }
+      });
+      for (std::size_t i = 0; i < seq.size(); ++i) {
+        const auto& a = results[i];
+        const auto& b = poses[i];
+        if (a.T_target_source.x_m != b.T_target_source.x_m ||
+            a.T_target_source.y_m != b.T_target_source.y_m ||
+            a.T_target_source.yaw_rad != b.T_target_source.yaw_rad || a.valid != b.valid ||
+            a.overlap_ratio != b.overlap_ratio) {
+          throw std::runtime_error("icp pair " + std::to_string(i) +
+                                   ": the answer without the covariance differs");
+        }
+      }
+      std::fprintf(times.get(), "icp_pose,%zu,%.6f\n", seq.size(), pose_ms);
+      std::printf("icp without the covariance: %zu pairs, draco %.3f ms\n", seq.size(), pose_ms);
     }
 
     // (e) GCM: the first robot's candidates against its matched teammates, plus wrong loops.

@@ -360,6 +360,12 @@ def item_icp(d, repeats):
                      within == len(rows),
                      f"{within}/{len(rows)} pairs within 1 cm / 0.1 deg of draco; error to truth "
                      f"median {em:.3f} m / {ed:.2f} deg (draco {dm:.3f} m / {dd:.2f} deg)"))
+    # The reference computes no covariance: draco doing the same work (the same answers,
+    # checked by peers_inputs), against the same reference run.
+    out_rows.append(("icp_pose", "icp, pose and overlap only (the reference's work)", len(rows),
+                     "cKDTree point-to-point ICP (reference)", ms, within == len(rows),
+                     "draco without the covariance (IcpOptions::covariance false): the same "
+                     "poses, validity and overlaps as the row above"))
     try:
         import open3d as o3d
     except ImportError:
