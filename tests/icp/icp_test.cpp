@@ -99,6 +99,39 @@ TEST(KdTree2, OwnCopyAndTies) {
   EXPECT_GT(ties, 1000);  // the lattice does make ties
 }
 
+// Without the covariance the answer is the same, bit for bit, and the covariance is zero.
+TEST(Icp, WithoutCovarianceTheAnswerIsTheSame) {
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> noise(0.0, 0.03);
+  const Cloud2 target = Scene(rng, 300);
+  const msgs::Pose2 truth{0.8, -0.4, 0.1};
+  Cloud2 source;
+  for (const auto& p : Scene(rng, 300)) {
+    source.push_back(Apply(Inverse(truth), p) + Eigen::Vector2d(noise(rng), noise(rng)));
+  }
+  for (const Metric metric : {Metric::kPointToPoint, Metric::kPointToLine}) {
+    IcpOptions o;
+    o.metric = metric;
+    const msgs::Pose2 seed{1.1, -0.1, 0.05};
+    const IcpResult full = AlignIcp(source, target, seed, o);
+    o.covariance = false;
+    const IcpResult pose = AlignIcp(source, target, seed, o);
+    ASSERT_TRUE(full.valid);
+    EXPECT_NEAR(full.T_target_source.x_m, truth.x_m, 0.05);
+    EXPECT_GT(full.covariance[0], 0.0);
+    EXPECT_EQ(pose.valid, full.valid);
+    EXPECT_EQ(pose.converged, full.converged);
+    EXPECT_EQ(pose.iterations, full.iterations);
+    EXPECT_EQ(pose.correspondences, full.correspondences);
+    EXPECT_EQ(pose.T_target_source.x_m, full.T_target_source.x_m);
+    EXPECT_EQ(pose.T_target_source.y_m, full.T_target_source.y_m);
+    EXPECT_EQ(pose.T_target_source.yaw_rad, full.T_target_source.yaw_rad);
+    EXPECT_EQ(pose.rmse_m, full.rmse_m);
+    EXPECT_EQ(pose.overlap_ratio, full.overlap_ratio);
+    for (const double c : pose.covariance) EXPECT_EQ(c, 0.0);
+  }
+}
+
 class IcpRecovers : public ::testing::TestWithParam<Metric> {};
 
 TEST_P(IcpRecovers, KnownTransformWithNoiseAndOutliers) {
