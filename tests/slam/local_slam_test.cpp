@@ -121,7 +121,7 @@ eval::Trajectory Estimates(const LocalSlam& slam, bool dead_reckoning) {
 
 // The mission through sequential scan matching and LocalSlam(options): loop counts and ATEs.
 struct MissionRun {
-  int accepted = 0, ambiguous = 0, chain_rejected = 0;
+  int accepted = 0, ambiguous = 0, chain_rejected = 0, icp_ambiguous = 0;
   double slam_ate_m = 0.0, dr_ate_m = 0.0;
 };
 MissionRun RunMission(const Mission& mission, const LocalSlamOptions& options) {
@@ -134,6 +134,7 @@ MissionRun RunMission(const Mission& mission, const LocalSlamOptions& options) {
     out.accepted += r.loops_accepted;
     out.ambiguous += r.loops_ambiguous;
     out.chain_rejected += r.loops_chain_rejected;
+    out.icp_ambiguous += r.loops_icp_ambiguous;
   }
   out.dr_ate_m = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
   out.slam_ate_m = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
@@ -254,6 +255,43 @@ TEST(LocalSlam, AmbiguityTestKeepsTheLoopsOfADistinctiveWorld) {
     const MissionRun r = RunMission(mission, o);
     std::printf("ambiguity 0.9 %s: %d loops accepted, %d ambiguous; ATE %.2f m (DR %.2f m)\n",
                 inflate ? "inflate" : "drop", r.accepted, r.ambiguous, r.slam_ate_m, r.dr_ate_m);
+    EXPECT_GT(r.accepted, 3);
+    EXPECT_LT(r.slam_ate_m, 0.3 * r.dr_ate_m);
+  }
+}
+
+// The ICP ambiguity test: in a world that is one row of identical piles 4 m apart, ICP from a
+// loop's answer moved by 5 m along the row lands on the next pile, so the loops are found
+// ambiguous (and dropped); among scattered piles and four walls the loops are kept, drift is
+// removed, and keeping the ambiguous ones with their other fits in the covariance does too.
+TEST(LocalSlam, IcpAmbiguityTestSeesARowOfPilesNotADistinctiveWorld) {
+  std::mt19937 rng(3);
+  World row;
+  for (double x = -40.0; x <= 40.0 + 1e-9; x += 4.0) {
+    for (int k = 0; k < 8; ++k) {
+      row.points.push_back({x + 0.3 * std::cos(k * M_PI / 4), -7.0 + 0.3 * std::sin(k * M_PI / 4)});
+    }
+  }
+  const Mission along_row = MakeMission(row, rng);
+  LocalSlamOptions o;
+  const MissionRun plain = RunMission(along_row, o);
+  o.loop_icp_ambiguity_ratio = 0.9;
+  const MissionRun tested = RunMission(along_row, o);
+  std::printf("row of piles: %d loops accepted without the test, %d with it (%d ambiguous)\n",
+              plain.accepted, tested.accepted, tested.icp_ambiguous);
+  EXPECT_EQ(plain.icp_ambiguous, 0);
+  EXPECT_GT(tested.icp_ambiguous, 0);
+  EXPECT_LT(tested.accepted, plain.accepted);
+
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  for (const bool inflate : {false, true}) {
+    o.loop_icp_ambiguity_inflate = inflate;
+    const MissionRun r = RunMission(mission, o);
+    std::printf(
+        "scattered piles, ICP ambiguity 0.9 %s: %d loops accepted, %d ambiguous; ATE "
+        "%.2f m (DR %.2f m)\n",
+        inflate ? "inflate" : "drop", r.accepted, r.icp_ambiguous, r.slam_ate_m, r.dr_ate_m);
     EXPECT_GT(r.accepted, 3);
     EXPECT_LT(r.slam_ate_m, 0.3 * r.dr_ate_m);
   }

@@ -9,9 +9,11 @@
 #include <stdexcept>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 
 #include "draco/consistency/filter.hpp"
+
 #include "draco/consistency/se2.hpp"
 #include "draco/icp/icp.hpp"
 #include "draco/pose_graph/g2o.hpp"
@@ -40,6 +42,37 @@ pg::Matrix3 Information(const Eigen::Matrix3d& covariance) {
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c)
       out[static_cast<std::size_t>(3 * r + c)] = 0.5 * (info(r, c) + info(c, r));
+  }
+  return out;
+}
+
+// LocalSlamOptions::loop_icp_ambiguity_ratio: the places other than the answer (more than
+// 1 m or 5 deg away) where ICP from the answer moved by each offset in 8 directions lands with
+// nearly its overlap, as translations from the answer in the source keyframe's frame.
+std::vector<Eigen::Vector2d> IcpAlternatives(const icp::Cloud2& source, icp::IcpTarget& target,
+                                             const icp::IcpResult& answer,
+                                             const LocalSlamOptions& o) {
+  icp::IcpOptions again;
+  again.covariance = false;
+  const msgs::Pose2& best = answer.T_target_source;
+  const double needed = o.loop_icp_ambiguity_ratio * answer.overlap_ratio;
+  const Eigen::Rotation2Dd R_source_target(-best.yaw_rad);
+  std::vector<Eigen::Vector2d> out;
+  for (const double offset_m : o.loop_icp_ambiguity_offsets_m) {
+    for (int d = 0; d < 8; ++d) {
+      const double a = M_PI / 4.0 * d;
+      const msgs::Pose2 seed{best.x_m + offset_m * std::cos(a), best.y_m + offset_m * std::sin(a),
+                             best.yaw_rad};
+      const icp::IcpResult r = icp::AlignIcp(source, target, seed, again);
+      if (!r.valid || r.overlap_ratio < needed) continue;
+      const Eigen::Vector2d shift(r.T_target_source.x_m - best.x_m,
+                                  r.T_target_source.y_m - best.y_m);
+      if (shift.norm() > 1.0 ||
+          std::abs(std::remainder(r.T_target_source.yaw_rad - best.yaw_rad, 2.0 * M_PI)) > 0.0873) {
+        out.push_back(R_source_target * shift);
+        if (!o.loop_icp_ambiguity_inflate) return out;  // one is enough to drop the loop
+      }
+    }
   }
   return out;
 }
@@ -313,9 +346,12 @@ struct LocalSlam::Impl {
   consistency::ConsistencyFilter pcm;
   std::vector<LoopRecord> loops;
   std::map<std::uint64_t, std::size_t> loop_by_id;
+  // Loops whose factor gets a wider covariance than PCM tested (loop_icp_ambiguity_inflate).
+  std::map<std::uint64_t, msgs::Covariance3> factor_covariance;
   std::uint64_t next_loop_id = 0;
   int ambiguous_loops = 0;       // candidates dropped by the ambiguity test, this step
   int chain_rejected_loops = 0;  // candidates the chain test dropped, this step
+  int icp_ambiguous_loops = 0;   // candidates the ICP ambiguity test dropped, this step
 
   // Point landmarks; the index is the graph's point id.
   struct LandmarkSighting {
@@ -581,13 +617,20 @@ struct LocalSlam::Impl {
         }
         seed = search.best;
       }
-      const icp::IcpResult r = icp::AlignIcp(source, target, seed);
+      icp::IcpTarget prepared(std::move(target));
+      const icp::IcpResult r = icp::AlignIcp(source, prepared, seed);
       if (!r.valid || r.overlap_ratio < o.loop_min_overlap) continue;
       if (o.loop_max_rmse_m > 0 && r.rmse_m > o.loop_max_rmse_m) continue;
       const msgs::Pose2 correction = consistency::Between(guess, r.T_target_source);
       if (std::hypot(correction.x_m, correction.y_m) > o.loop_max_correction_m ||
           std::abs(correction.yaw_rad) > o.loop_max_correction_rad) {
         continue;
+      }
+      std::vector<Eigen::Vector2d> alternatives;
+      if (o.loop_icp_ambiguity_ratio > 0) {
+        alternatives = IcpAlternatives(source, prepared, r, o);
+        if (!alternatives.empty()) ++icp_ambiguous_loops;
+        if (!alternatives.empty() && !o.loop_icp_ambiguity_inflate) continue;
       }
       const msgs::Covariance3 loop_covariance =
           LoopCovariance(r.covariance, r.rmse_m, r.overlap_ratio, o);
@@ -624,6 +667,21 @@ struct LocalSlam::Impl {
           loop.covariance[4] += syy - min_eig;
           ++ambiguous_loops;
         }
+      }
+      // Each other place the scan fits adds its shift's outer product to the translation
+      // covariance of the loop's factor (source frame, as the ICP covariance): along a row of
+      // piles the loop then holds the distance to the row and the heading, not the position
+      // along it. PCM still tests the loop with its own covariance, which a wider one would
+      // only make easier to pass.
+      if (!alternatives.empty()) {
+        msgs::Covariance3 wide = loop.covariance;
+        for (const Eigen::Vector2d& shift : alternatives) {
+          wide[0] += shift.x() * shift.x();
+          wide[1] += shift.x() * shift.y();
+          wide[3] += shift.x() * shift.y();
+          wide[4] += shift.y() * shift.y();
+        }
+        factor_covariance[loop.id] = wide;
       }
       loop.overlap = r.overlap_ratio;
       loop_by_id[loop.id] = loops.size();
@@ -714,6 +772,8 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   m.ambiguous_loops = 0;
   result.loops_chain_rejected = m.chain_rejected_loops;
   m.chain_rejected_loops = 0;
+  result.loops_icp_ambiguous = m.icp_ambiguous_loops;
+  m.icp_ambiguous_loops = 0;
   if (!proposed.empty()) {
     const consistency::Decision d = m.pcm.Add(proposed, m.chain);
     for (std::uint64_t id : d.newly_accepted) {
@@ -723,6 +783,9 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
       Eigen::Matrix3d loop_cov = Eigen::Matrix3d::Zero();
       for (const auto& p : proposed) {
         if (p.id == id) loop_cov = consistency::ToMatrix(p.covariance);
+      }
+      if (const auto wide = m.factor_covariance.find(id); wide != m.factor_covariance.end()) {
+        loop_cov = consistency::ToMatrix(wide->second);
       }
       if (loop_cov.isZero()) {
         loop_cov.diagonal() << o.loop_min_sigma_xy_m * o.loop_min_sigma_xy_m,

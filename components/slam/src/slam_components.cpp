@@ -121,6 +121,17 @@ class LocalSlamComponent final : public graph::Component {
     spec.Param("loop_ambiguity_inflate", &o_.loop_ambiguity_inflate,
                {.doc = "keep ambiguous loops with the search plateau's elongation added to "
                        "their covariance instead of dropping them"});
+    spec.Param("loop_icp_ambiguity_ratio", &o_.loop_icp_ambiguity_ratio,
+               {.doc = "drop a loop when ICP from its answer moved by loop_icp_ambiguity_offsets_m "
+                       "(8 directions) lands more than 1 m or 5 deg away with this fraction of "
+                       "its overlap (0: off)",
+                .min = 0,
+                .max = 1});
+    spec.Param("loop_icp_ambiguity_offsets_m", &o_.loop_icp_ambiguity_offsets_m,
+               {.doc = "seed offsets of the ICP ambiguity test", .unit = "m"});
+    spec.Param("loop_icp_ambiguity_inflate", &o_.loop_icp_ambiguity_inflate,
+               {.doc = "keep an ICP-ambiguous loop with each other place's shift added to its "
+                       "translation covariance instead of dropping it"});
     spec.Param("loop_ambiguity_offset_m", &o_.loop_ambiguity_offset_m,
                {.doc = "how far from the best pose a runner-up must be", .unit = "m", .min = 0});
     spec.Param("loop_max_yaw_rad", &o_.loop_max_yaw_rad,
@@ -209,6 +220,7 @@ class LocalSlamComponent final : public graph::Component {
         loops_accepted_ += r.loops_accepted;
         loops_ambiguous_ += r.loops_ambiguous;
         loops_chain_rejected_ += r.loops_chain_rejected;
+        loops_icp_ambiguous_ += r.loops_icp_ambiguous;
         (r.full_solve ? full_solves_ : window_solves_) += 1;
         (r.full_solve ? full_solve_s_ : window_solve_s_) += r.solve_time_s;
       } catch (const std::exception& e) {
@@ -242,6 +254,13 @@ class LocalSlamComponent final : public graph::Component {
       log::Info(prefix_ + "local SLAM: " + std::to_string(loops_chain_rejected_) +
                 " loop candidates refused: a correction the keyframe chain cannot explain "
                 "(loop_chain_chi2)");
+    }
+    if (loops_icp_ambiguous_ > 0) {
+      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_icp_ambiguous_) +
+                (o_.loop_icp_ambiguity_inflate
+                     ? " loops kept with their other fits added to the covariance"
+                     : " loop candidates dropped") +
+                ": ICP from a shifted seed fits them elsewhere as well (loop_icp_ambiguity_ratio)");
     }
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;
@@ -331,6 +350,7 @@ class LocalSlamComponent final : public graph::Component {
   int loops_accepted_ = 0;
   int loops_ambiguous_ = 0;
   int loops_chain_rejected_ = 0;
+  int loops_icp_ambiguous_ = 0;
   int full_solves_ = 0, window_solves_ = 0;  // pose-graph solves, and their time
   double full_solve_s_ = 0.0, window_solve_s_ = 0.0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;

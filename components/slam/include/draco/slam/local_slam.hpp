@@ -106,6 +106,17 @@ struct LocalSlamOptions {
   // near-best plateau (translations scoring >= loop_ambiguity_ratio of the best: their spread
   // minus its isotropic part) to the loop's translation covariance.
   bool loop_ambiguity_inflate = false;
+  // ICP ambiguity (0: off), the inter-robot registration's test (registration::
+  // RegistrationOptions::ambiguity_*) on intra-robot loops: a loop that passed the gates is
+  // aligned again by ICP from its answer moved by each of loop_icp_ambiguity_offsets_m in 8
+  // directions (in the target keyframe's frame); when one lands more than 1 m or 5 deg from the
+  // answer with at least loop_icp_ambiguity_ratio of its overlap, the scan fits two places and
+  // the loop is dropped.
+  double loop_icp_ambiguity_ratio = 0.0;
+  std::vector<double> loop_icp_ambiguity_offsets_m{2.5, 5.0};
+  // Instead of dropping the loop, keep it with each other place's shift (in the source
+  // keyframe's frame) added to its translation covariance as its outer product.
+  bool loop_icp_ambiguity_inflate = false;
 
   // Sparse point landmarks (on by default since docs/local-slam.md "Sparse point landmarks":
   // every robot of both default missions better): small isolated objects (boulders, debris) give a
@@ -213,6 +224,7 @@ struct StepResult {
   // 0.5 m of slide added to their covariance.
   int loops_ambiguous = 0;
   int loops_chain_rejected = 0;  // candidates whose correction the chain test refused
+  int loops_icp_ambiguous = 0;   // candidates the ICP ambiguity test dropped
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
