@@ -243,25 +243,22 @@ class LocalSlamComponent final : public graph::Component {
                     full_solve_s_, window_solves_, window_solve_s_);
       log::Info(prefix_ + line);
     }
-    if (loops_ambiguous_ > 0) {
-      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_ambiguous_) +
-                (o_.loop_ambiguity_inflate
-                     ? " ambiguous loops kept with their slide added to the covariance"
-                     : " loop candidates dropped as ambiguous") +
-                " (loop_ambiguity_ratio)");
-    }
-    if (loops_chain_rejected_ > 0) {
-      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_chain_rejected_) +
-                " loop candidates refused: a correction the keyframe chain cannot explain "
-                "(loop_chain_chi2)");
-    }
-    if (loops_icp_ambiguous_ > 0) {
-      log::Info(prefix_ + "local SLAM: " + std::to_string(loops_icp_ambiguous_) +
-                (o_.loop_icp_ambiguity_inflate
-                     ? " loops kept with their other fits added to the covariance"
-                     : " loop candidates dropped") +
-                ": ICP from a shifted seed fits them elsewhere as well (loop_icp_ambiguity_ratio)");
-    }
+    const auto count = [&](int n, const std::string& what) {
+      if (n > 0) log::Info(prefix_ + "local SLAM: " + std::to_string(n) + what);
+    };
+    count(loops_ambiguous_,
+          std::string(o_.loop_ambiguity_inflate ? " ambiguous loops kept with their slide added to "
+                                                  "the covariance"
+                                                : " loop candidates dropped as ambiguous") +
+              " (loop_ambiguity_ratio)");
+    count(loops_chain_rejected_,
+          " loop candidates refused: a correction the keyframe chain cannot explain "
+          "(loop_chain_chi2)");
+    count(loops_icp_ambiguous_,
+          std::string(o_.loop_icp_ambiguity_inflate
+                          ? " loops kept with their other fits added to the covariance"
+                          : " loop candidates dropped") +
+              ": ICP from a shifted seed fits them elsewhere as well (loop_icp_ambiguity_ratio)");
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;
     for (const auto& k : slam_.Trajectory()) {
