@@ -13,7 +13,6 @@
 #include <Eigen/LU>
 
 #include "draco/consistency/filter.hpp"
-
 #include "draco/consistency/se2.hpp"
 #include "draco/icp/icp.hpp"
 #include "draco/pose_graph/g2o.hpp"
@@ -351,7 +350,7 @@ struct LocalSlam::Impl {
   std::uint64_t next_loop_id = 0;
   int ambiguous_loops = 0;       // candidates dropped by the ambiguity test, this step
   int chain_rejected_loops = 0;  // candidates the chain test dropped, this step
-  int icp_ambiguous_loops = 0;   // candidates the ICP ambiguity test dropped, this step
+  int icp_ambiguous_loops = 0;   // candidates the ICP ambiguity test found, this step
 
   // Point landmarks; the index is the graph's point id.
   struct LandmarkSighting {

@@ -224,7 +224,8 @@ struct StepResult {
   // 0.5 m of slide added to their covariance.
   int loops_ambiguous = 0;
   int loops_chain_rejected = 0;  // candidates whose correction the chain test refused
-  int loops_icp_ambiguous = 0;   // candidates the ICP ambiguity test dropped
+  // Candidates the ICP ambiguity test found (dropped, or kept with a wider factor covariance).
+  int loops_icp_ambiguous = 0;
   bool full_solve = false;
   double solve_time_s = 0.0;
 };
