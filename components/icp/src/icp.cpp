@@ -228,22 +228,14 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
     return result;
   }
 
-  // Residuals and covariance on the final correspondences.
+  // Residuals and covariance on the final correspondences (IcpOptions::covariance).
   double sum2 = 0.0, line2 = 0.0;
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  const double m = static_cast<double>(pairs.size());
-  result.correspondences = static_cast<int>(pairs.size());
-  if (!o.covariance) {
-    for (const Pair& p : pairs) sum2 += (moved[p.source] - tp[p.target]).squaredNorm();
-    result.rmse_m = std::sqrt(sum2 / m);
-    result.overlap_ratio =
-        OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
-    return result;
-  }
   for (const Pair& p : pairs) {
-    const Eigen::Vector2d& n = target.Normal(p.target, o.normal_neighbors);
     const Eigen::Vector2d e = moved[p.source] - tp[p.target];
     sum2 += e.squaredNorm();
+    if (!o.covariance) continue;
+    const Eigen::Vector2d& n = target.Normal(p.target, o.normal_neighbors);
     const double r = n.dot(e);
     line2 += r * r;
     // d(moved)/d(right perturbation): [R, R S p] with S p = (-p_y, p_x).
@@ -253,13 +245,17 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
     const Eigen::Vector3d J(nr.x(), nr.y(), n.dot(rsp));
     H += J * J.transpose();
   }
+  const double m = static_cast<double>(pairs.size());
+  result.correspondences = static_cast<int>(pairs.size());
   result.rmse_m = std::sqrt(sum2 / m);
-  const double sigma2 =
-      std::max(line2 / std::max(m - 3.0, 1.0), o.min_residual_sigma_m * o.min_residual_sigma_m);
-  H.diagonal().array() += o.information_regularization;
-  const Eigen::Matrix3d cov = sigma2 * H.inverse();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) result.covariance[i * 3 + j] = 0.5 * (cov(i, j) + cov(j, i));
+  if (o.covariance) {
+    const double sigma2 =
+        std::max(line2 / std::max(m - 3.0, 1.0), o.min_residual_sigma_m * o.min_residual_sigma_m);
+    H.diagonal().array() += o.information_regularization;
+    const Eigen::Matrix3d cov = sigma2 * H.inverse();
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) result.covariance[i * 3 + j] = 0.5 * (cov(i, j) + cov(j, i));
+    }
   }
   result.overlap_ratio =
       OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
