@@ -57,6 +57,30 @@ TEST(KdTree2, MatchesBruteForce) {
   }
 }
 
+// KNearest for a k beyond the small-k buffer (32) and beyond the cloud's size: the k closest,
+// closest first, as a sort of every point by distance gives.
+TEST(KdTree2, KNearestLargeKMatchesBruteForce) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-10.0, 10.0);
+  Cloud2 pts(120);
+  for (auto& p : pts) p = {u(rng), u(rng)};
+  const KdTree2 tree(pts);
+  std::vector<int> knn;
+  for (int q = 0; q < 50; ++q) {
+    const Eigen::Vector2d x(u(rng), u(rng));
+    std::vector<std::pair<double, int>> all;
+    for (int i = 0; i < 120; ++i) all.emplace_back((pts[i] - x).squaredNorm(), i);
+    std::sort(all.begin(), all.end());
+    for (const int k : {1, 32, 33, 50, 200}) {
+      tree.KNearest(x, k, &knn);
+      ASSERT_EQ(knn.size(), static_cast<std::size_t>(std::min(k, 120)));
+      for (std::size_t i = 0; i < knn.size(); ++i) EXPECT_EQ(knn[i], all[i].second) << k;
+    }
+  }
+  tree.KNearest(Eigen::Vector2d::Zero(), 0, &knn);
+  EXPECT_TRUE(knn.empty());
+}
+
 // The tree keeps its own copy of the points, and with ties (a 0.5 m lattice, every point
 // twice, half the queries on cell midpoints) it still returns a nearest point, its exact
 // squared distance, and -1 with the bound itself when nothing lies within the bound.

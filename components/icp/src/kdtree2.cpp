@@ -87,40 +87,54 @@ int KdTree2::Nearest(const Eigen::Vector2d& q, double max_distance2, double* dis
   return best < 0 ? -1 : index_[static_cast<std::size_t>(best)];
 }
 
-void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const {
-  // Small k: a sorted list of (distance2, index), pruned against its worst member.
-  std::vector<std::pair<double, int>> best;
-  best.reserve(k + 1);
+// The same visiting order as NearestRange; a point is taken when the list is not full or it
+// is strictly closer than the list's worst (the first of equal points visited stays).
+void KdTree2::KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* best) const {
   const Eigen::Vector2d* p = sorted_.data();
   auto offer = [&](int pos) {
     const double d2 = (p[pos] - q).squaredNorm();
-    if (static_cast<int>(best.size()) == k && d2 >= best.back().first) return;
-    const int idx = index_[static_cast<std::size_t>(pos)];
-    auto it = std::upper_bound(best.begin(), best.end(), std::make_pair(d2, idx));
-    best.insert(it, {d2, idx});
-    if (static_cast<int>(best.size()) > k) best.pop_back();
+    if (best->size == best->k && d2 >= best->slots[best->size - 1].first) return;
+    const std::pair<double, int> entry{d2, index_[static_cast<std::size_t>(pos)]};
+    std::pair<double, int>* end = best->slots + best->size;
+    std::pair<double, int>* it = std::upper_bound(best->slots, end, entry);
+    std::move_backward(it, end, end + 1);
+    *it = entry;
+    if (best->size < best->k) ++best->size;
   };
-  auto worst = [&] { return static_cast<int>(best.size()) < k ? 1e300 : best.back().first; };
-  auto rec = [&](auto&& self, int lo, int hi) -> void {
-    if (hi - lo <= kLeaf) {
-      for (int i = lo; i < hi; ++i) offer(i);
-      return;
-    }
+  auto worst = [&] { return best->size < best->k ? 1e300 : best->slots[best->size - 1].first; };
+  while (hi - lo > kLeaf) {
     const int mid = (lo + hi) / 2;
     const int d = dim_[static_cast<std::size_t>(mid)];
     const double diff = q[d] - p[mid][d];
     offer(mid);
     if (diff < 0.0) {
-      self(self, lo, mid);
-      if (diff * diff < worst()) self(self, mid + 1, hi);
+      KNearestRange(lo, mid, q, best);
+      if (!(diff * diff < worst())) return;
+      lo = mid + 1;  // the far side, as a loop
     } else {
-      self(self, mid + 1, hi);
-      if (diff * diff < worst()) self(self, lo, mid);
+      KNearestRange(mid + 1, hi, q, best);
+      if (!(diff * diff < worst())) return;
+      hi = mid;
     }
-  };
-  if (k > 0 && !index_.empty()) rec(rec, 0, static_cast<int>(index_.size()));
+  }
+  for (int i = lo; i < hi; ++i) offer(i);
+}
+
+void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const {
   indices->clear();
-  for (const auto& b : best) indices->push_back(b.second);
+  if (k <= 0 || index_.empty()) return;
+  // Small k (normals: 6 neighbours) on the stack; the list needs one slot beyond k.
+  constexpr int kInline = 32;
+  std::pair<double, int> inline_slots[kInline + 1];
+  std::vector<std::pair<double, int>> heap_slots;
+  std::pair<double, int>* slots = inline_slots;
+  if (k > kInline) {
+    heap_slots.resize(static_cast<std::size_t>(k) + 1);
+    slots = heap_slots.data();
+  }
+  KBest best{slots, 0, k};
+  KNearestRange(0, static_cast<int>(index_.size()), q, &best);
+  for (int i = 0; i < best.size; ++i) indices->push_back(slots[i].second);
 }
 
 }  // namespace draco::icp

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace draco::icp {
@@ -31,6 +32,13 @@ class KdTree2 {
   };
   void BuildRange(std::vector<Node>* nodes, int lo, int hi);
   void NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2, int* best) const;
+  // The k best so far, sorted by (distance2, index): a caller's buffer of k + 1 slots.
+  struct KBest {
+    std::pair<double, int>* slots;
+    int size;
+    int k;
+  };
+  void KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* best) const;
   Cloud2 sorted_;                  // the points in tree order
   std::vector<int> index_;         // tree position -> index in the cloud
   std::vector<std::uint8_t> dim_;  // split axis of the node whose median sits at position i
