@@ -353,6 +353,62 @@ TEST(LocalSlam, WithoutLoopClosureFollowsTheFactors) {
   EXPECT_TRUE(slam.Loops().empty());
 }
 
+// Scan matches whose translation is 0.3 m off on every step (yaw exact) beside dead
+// reckoning whose translation is exact (yaw 0.01 rad off): with the scan match's translation
+// floored at 1 m the graph takes its translation from dead reckoning and its yaw mostly from
+// the scan match; with the common 0.1 m floor it follows the scan match's translation part way,
+// and the robust loss, seeing the translation disagree, discounts the scan match's yaw too.
+TEST(LocalSlam, ScanMatchTranslationFloorLeavesTranslationToDeadReckoning) {
+  const auto run = [](double min_scan_match_sigma_xy_m) {
+    LocalSlam slam(LocalSlamOptions{.min_dr_sigma_yaw_rad = 0.02,
+                                    .min_scan_match_sigma_xy_m = min_scan_match_sigma_xy_m,
+                                    .loop_closure = false,
+                                    .landmarks = false});
+    const msgs::Pose2 step{2.0, 0.0, 0.05};  // true increment
+    msgs::Pose2 dr{};
+    for (int i = 0; i < 30; ++i) {
+      msgs::Keyframe kf;
+      kf.index = i;
+      kf.time_s = 5.0 * i;
+      msgs::SequentialFactor f;
+      if (i > 0) {
+        kf.T_prevkf_kf = {step.x_m, step.y_m, step.yaw_rad + 0.01};
+        kf.covariance_prevkf_kf = {1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-4};
+        dr = Compose(dr, kf.T_prevkf_kf);
+        f = {.from_index = i - 1,
+             .to_index = i,
+             .time_s = kf.time_s,
+             .T_from_to = {step.x_m + 0.3, step.y_m, step.yaw_rad},
+             .covariance = {1e-4, 0, 0, 0, 1e-4, 0, 0, 0, 1e-6},
+             .scan_matched = true};
+      }
+      kf.T_odom_body = dr;
+      slam.AddKeyframe(kf, i > 0 ? &f : nullptr);
+    }
+    // Mean error of the optimised increments against the truth.
+    const auto t = slam.Trajectory();
+    double dx = 0, dyaw = 0;
+    for (std::size_t i = 1; i < t.size(); ++i) {
+      const msgs::Pose2 d = Between(t[i - 1].T_map_kf, t[i].T_map_kf);
+      dx += (d.x_m - step.x_m) / static_cast<double>(t.size() - 1);
+      dyaw += (d.yaw_rad - step.yaw_rad) / static_cast<double>(t.size() - 1);
+    }
+    return std::pair{dx, dyaw};
+  };
+  // Each increment is its own two-factor problem (a chain). Scan match residual r = ((x - 0.3)
+  // / sigma_xy, yaw / 0.01), Cauchy weight w = 1 / (1 + |r|^2); dead reckoning (x / 0.1,
+  // (yaw - 0.01) / 0.02). Solved by hand (fixed point of the weighted means):
+  // floor 1 m: w = 0.88, x = 0.3 w / (100 + w) = 0.0026 m, yaw = 25 / (2500 + 10000 w) = 0.0022.
+  const auto [dx_floored, dyaw_floored] = run(1.0);
+  EXPECT_NEAR(dx_floored, 0.0026, 0.001);
+  EXPECT_NEAR(dyaw_floored, 0.0022, 0.0005);
+  // floor 0.1 m: the translation disagreement (2.7 sigma) also down-weights the scan match's
+  // good yaw: w = 0.115, x = 0.3 w / (1 + w) = 0.031 m, yaw = 0.0068 rad.
+  const auto [dx_common, dyaw_common] = run(-1.0);
+  EXPECT_NEAR(dx_common, 0.031, 0.003);
+  EXPECT_NEAR(dyaw_common, 0.0068, 0.0007);
+}
+
 TEST(LocalSlam, LoopCovarianceFloorsAndInflates) {
   msgs::Covariance3 icp{};  // an overconfident ICP covariance: all zero
   LocalSlamOptions o;

@@ -732,6 +732,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
               o.min_factor_sigma_xy_m, o.min_factor_sigma_yaw_rad);
   const msgs::Pose2 initial = consistency::Compose(m.Estimate(k - 1), T_prev_k);
   m.graph.AddPose(k, ToPg(initial));
+  const bool scan_matched = factor != nullptr && factor->scan_matched;
   if (o.heading_prior_sigma_rad > 0) {
     // The AHRS heading is absolute, its error bounded: a yaw-only prior (negligible weight on
     // x, y) keeps the graph from rotating whole segments to satisfy a loop.
@@ -742,12 +743,15 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
                          : pg::RobustLoss{});
   }
   if (o.heading_bias_sigma_rad > 0) m.AddHeadingBias(k);
-  const bool scan_matched = factor != nullptr && factor->scan_matched;
   const pg::RobustLoss sequential_loss =
       scan_matched && o.scan_match_cauchy_scale > 0
           ? pg::RobustLoss{pg::LossKind::kCauchy, o.scan_match_cauchy_scale}
           : pg::RobustLoss{};
-  m.graph.AddBetween(k - 1, k, ToPg(T_prev_k), Information(cov),
+  const Eigen::Matrix3d graph_cov =
+      scan_matched && o.min_scan_match_sigma_xy_m >= 0
+          ? Floored(factor->covariance, o.min_scan_match_sigma_xy_m, o.min_factor_sigma_yaw_rad)
+          : cov;
+  m.graph.AddBetween(k - 1, k, ToPg(T_prev_k), Information(graph_cov),
                      scan_matched ? pg::FactorKind::kScanMatch : pg::FactorKind::kOdometry,
                      sequential_loss);
   if (scan_matched && o.keep_dead_reckoning_factor) {

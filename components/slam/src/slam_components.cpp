@@ -87,6 +87,10 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "floor on factor sigmas", .unit = "m", .min = 1e-6});
     spec.Param("min_factor_sigma_yaw_rad", &o_.min_factor_sigma_yaw_rad,
                {.doc = "floor on factor sigmas", .unit = "rad", .min = 1e-7});
+    spec.Param("min_scan_match_sigma_xy_m", &o_.min_scan_match_sigma_xy_m,
+               {.doc = "floor on a scan-matching factor's translation sigma in the graph (<0: "
+                       "min_factor_sigma_xy_m; the loop test's chain keeps that floor)",
+                .unit = "m"});
     spec.Param("min_dr_sigma_xy_m", &o_.min_dr_sigma_xy_m,
                {.doc = "floor on the dead-reckoning factor beside a scan match (<0: as above)",
                 .unit = "m"});

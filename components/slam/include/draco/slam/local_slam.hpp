@@ -28,6 +28,10 @@ struct LocalSlamOptions {
   // Floors on the dead-reckoning factor kept beside a scan match (negative: the floors above).
   double min_dr_sigma_xy_m = -1.0;
   double min_dr_sigma_yaw_rad = -1.0;
+  // Floor on the translation sigma of a scan-matching factor in the graph (negative: as
+  // min_factor_sigma_xy_m). The keyframe chain that PCM tests loops against keeps the floor
+  // above, so this changes how the graph weighs sequential ICP against dead reckoning only.
+  double min_scan_match_sigma_xy_m = -1.0;
   // Keep the dead-reckoning increment as a factor beside each scan-matching factor, and put
   // a Cauchy loss (scale in sigmas; 0: none) on scan-matching factors.
   bool keep_dead_reckoning_factor = true;
