@@ -35,6 +35,18 @@ Eigen::Matrix3d Floored(const msgs::Covariance3& c, double sigma_xy, double sigm
   return 0.5 * (m + m.transpose());
 }
 
+// The pose graph's window and full solves. Full solves on one thread: Ceres sums each
+// thread's share of the cost and gradient in an order that depends on scheduling, so with two
+// the last bits of a cost could differ between two runs of the same input and flip a step's
+// acceptance; on one they cannot (the replay is deterministic by construction).
+pg::IncrementalOptions SolveSettings(const LocalSlamOptions& o) {
+  pg::IncrementalOptions inc;
+  inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
+  inc.full_solve_min_poses = o.full_solve_min_keyframes;
+  inc.full.num_threads = 1;
+  return inc;
+}
+
 pg::Matrix3 Information(const Eigen::Matrix3d& covariance) {
   const Eigen::Matrix3d info = covariance.inverse();
   pg::Matrix3 out;
@@ -801,10 +813,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
     }
   }
   if (o.landmarks) m.ObserveLandmarks(k);
-  pg::IncrementalOptions inc;
-  inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
-  inc.full_solve_min_poses = o.full_solve_min_keyframes;
-  const pg::SolveSummary s = m.graph.Update(inc);
+  const pg::SolveSummary s = m.graph.Update(SolveSettings(o));
   result.full_solve = s.full;
   result.solve_time_s = s.time_s;
   return result;
@@ -812,8 +821,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
 
 bool LocalSlam::Flush() {
   if (!impl_->graph.FullSolvePending()) return false;
-  pg::IncrementalOptions inc;  // its full-solve settings
-  impl_->graph.Optimize(inc.full);
+  impl_->graph.Optimize(SolveSettings(impl_->options).full);
   return true;
 }
 
