@@ -774,19 +774,23 @@ TEST(PoseGraph2d, RadiusStateExplainsNearFaceSightingsFromOppositeLanes) {
 TEST(PoseGraph2d, RadiusStateStopsAtItsBounds) {
   // Sightings that imply a radius beyond max_m (1.2 m objects, max 0.5 m) or below 0 (the far
   // face, -0.5 m) leave the radius exactly at the bound; the centres stay within the part of the
-  // radius the bound leaves unexplained.
-  for (const double implied : {1.2, -0.5}) {
-    LaneWorld w;
-    PoseGraph2d round = RoundObjectsGraph(implied, 0.5, &w);
-    const SolveSummary s = round.Optimize();
-    ASSERT_TRUE(s.usable) << s.report;
-    const double bound = implied > 0.5 ? 0.5 : 0.0;
-    for (int j = 0; j < 10; ++j) {
-      EXPECT_NEAR(*round.PointRadius(j), bound, 1e-6) << "point " << j << ", implied " << implied;
-      EXPECT_LT(std::hypot(round.Point(j).x_m - w.landmarks[j].x_m,
-                           round.Point(j).y_m - w.landmarks[j].y_m),
-                std::abs(implied - bound))
-          << implied;
+  // radius the bound leaves unexplained. With Ceres' projected line search and without it
+  // (SolverOptions::bounded_line_search_iterations 0: steps only projected onto the bounds).
+  for (const int line_search : {20, 0}) {
+    for (const double implied : {1.2, -0.5}) {
+      LaneWorld w;
+      PoseGraph2d round = RoundObjectsGraph(implied, 0.5, &w);
+      const SolveSummary s =
+          round.Optimize(SolverOptions{.bounded_line_search_iterations = line_search});
+      ASSERT_TRUE(s.usable) << s.report;
+      const double bound = implied > 0.5 ? 0.5 : 0.0;
+      for (int j = 0; j < 10; ++j) {
+        EXPECT_NEAR(*round.PointRadius(j), bound, 1e-6) << "point " << j << ", implied " << implied;
+        EXPECT_LT(std::hypot(round.Point(j).x_m - w.landmarks[j].x_m,
+                             round.Point(j).y_m - w.landmarks[j].y_m),
+                  std::abs(implied - bound))
+            << implied;
+      }
     }
   }
 }

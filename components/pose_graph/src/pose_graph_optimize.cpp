@@ -66,6 +66,7 @@ ceres::Solver::Options ToCeres(const SolverOptions& o) {
   options.parameter_tolerance = o.parameter_tolerance;
   options.jacobi_scaling = o.jacobi_scaling;
   options.use_nonmonotonic_steps = o.nonmonotonic_steps;
+  options.max_num_line_search_step_size_iterations = o.bounded_line_search_iterations;
   options.initial_trust_region_radius = o.initial_trust_region_radius;
   options.minimizer_progress_to_stdout = o.log_progress;
   options.logging_type = o.log_progress ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;

@@ -44,6 +44,10 @@ pg::IncrementalOptions SolveSettings(const LocalSlamOptions& o) {
   inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
   inc.full_solve_min_poses = o.full_solve_min_keyframes;
   inc.full.num_threads = 1;
+  if (!o.bounds_line_search) {
+    inc.full.bounded_line_search_iterations = 0;
+    inc.local.bounded_line_search_iterations = 0;
+  }
   return inc;
 }
 

@@ -87,6 +87,9 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "floor on factor sigmas", .unit = "m", .min = 1e-6});
     spec.Param("min_factor_sigma_yaw_rad", &o_.min_factor_sigma_yaw_rad,
                {.doc = "floor on factor sigmas", .unit = "rad", .min = 1e-7});
+    spec.Param("bounds_line_search", &o_.bounds_line_search,
+               {.doc = "Ceres' projected line search after each step of a solve with bounds "
+                       "(landmark radii); false: steps only projected onto the bounds"});
     spec.Param("min_scan_match_sigma_xy_m", &o_.min_scan_match_sigma_xy_m,
                {.doc = "floor on a scan-matching factor's translation sigma in the graph (<0: "
                        "min_factor_sigma_xy_m; the loop test's chain keeps that floor)",

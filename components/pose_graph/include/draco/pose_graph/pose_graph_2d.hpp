@@ -122,6 +122,10 @@ struct SolverOptions {
   // Large: the first Levenberg-Marquardt steps are nearly Gauss-Newton (3 iterations instead
   // of 9-21 on the g2o datasets); rejected steps still shrink the region.
   double initial_trust_region_radius = 1e12;
+  // Step-size iterations of the projected line search Ceres runs after every trust-region
+  // step of a problem with bounds (landmark radius states); 0: none, the step is only
+  // projected onto the bounds.
+  int bounded_line_search_iterations = 20;
   bool log_progress = false;  // Ceres' per-iteration log to stderr
   bool full_report = false;   // SolveSummary::report gets Ceres' full report (timings)
 };

@@ -60,6 +60,11 @@ struct LocalSlamOptions {
   double heading_meas_cauchy_scale = 0.0;
   double scan_match_cauchy_scale = 1.0;
 
+  // Ceres' projected line search after every trust-region step (the landmark radius states
+  // have bounds, which makes each solve a bounded problem); false: the step is only projected
+  // onto the bounds, and a step that does not lower the cost is rejected as always.
+  bool bounds_line_search = true;
+
   bool loop_closure = true;
   int loop_min_index_gap = 8;  // keyframes at least this far apart
   // Candidates within 20 m at any heading, keyframes of at least 20 points (docs/local-slam.md,
