@@ -61,9 +61,11 @@ struct LocalSlamOptions {
   double scan_match_cauchy_scale = 1.0;
 
   // Ceres' projected line search after every trust-region step (the landmark radius states
-  // have bounds, which makes each solve a bounded problem); false: the step is only projected
-  // onto the bounds, and a step that does not lower the cost is rejected as always.
-  bool bounds_line_search = true;
+  // have bounds, which makes each solve a bounded problem; Ceres' own comment calls it "not
+  // terribly effective"). false (default): the step is only projected onto the bounds, and a
+  // step that does not lower the cost is rejected as always. Off, the marina's local SLAM
+  // solves take about half the time (docs/local-slam.md, "Limits").
+  bool bounds_line_search = false;
 
   bool loop_closure = true;
   int loop_min_index_gap = 8;  // keyframes at least this far apart
