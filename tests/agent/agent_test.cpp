@@ -930,28 +930,6 @@ TEST(OptimizerStage, TurnsAPlacedTeammateTowardTheHeadingsAsFarAsItsLoopsLeaveTh
   }
 }
 
-// placement_heading_reference_s: the ratio follows the variance of the mean of a
-// Gauss-Markov heading error over each mission so far, g(x) = 2 (x - 1 + e^-x) / x^2, x = T /
-// tau. Both missions span 7 s; with tau 7 s, g(1) = 2 / e = 0.735759 and, for a reference of
-// 14 s, g(2) = (1 + e^-2) / 2 = 0.567668: the ratio 2 becomes 2 g(1) / g(2) = 2.592219 and
-// the fraction u / (u + 2.592219) = 0.248493 (u = 6/7, as above). A reference of 7 s leaves
-// the ratio at 2 (fraction 0.3).
-TEST(OptimizerStage, WeighsTheHeadingsByTheLengthOfTheMissionsSoFar) {
-  const std::vector<std::pair<int, int>> partial{{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}};
-  for (const auto& [reference_s, expected_fraction] : {std::pair{14.0, 0.248493},
-                                                        std::pair{7.0, 0.3}}) {
-    OptimizerStageOptions o;
-    o.mutual_placement_max_gap_m = 0.0;  // other rules under test
-    o.placement_heading_variance_ratio = 2.0;
-    o.placement_heading_reference_s = reference_s;
-    o.heading_error_correlation_s = 7.0;
-    Pose2 T_0_1;
-    const auto T = PlaceWithHeadings(o, partial, &T_0_1);
-    ASSERT_TRUE(T.has_value());
-    EXPECT_NEAR(T->yaw_rad, T_0_1.yaw_rad + expected_fraction * 0.1, 1e-5) << reference_s;
-  }
-}
-
 // max_rotation_lever_m: the teammate's keyframes (0, 2k), k = 0..7, lie at an RMS distance
 // L = sqrt(21 + 1.8^2) = 4.9234 m from the loops' teammate-keyframe centroid (0, 8.8); with
 // u = 6/7 and ratio 2 the rotation's sigma is sqrt(u 2 / (u + 2)) = sqrt(0.6) of one map's,

@@ -227,7 +227,7 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
 
 double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& problem) const {
   if (options_.placement_heading_weight > 0.0) return options_.placement_heading_weight;
-  const double ratio = HeadingVarianceRatio(robot);
+  const double ratio = options_.placement_heading_variance_ratio;
   if (!(ratio > 0.0) || poses_.Find(robot) == nullptr) return 0.0;
   std::vector<std::pair<int, int>> keyframes;
   for (const auto& l : problem.loops) {
@@ -235,40 +235,6 @@ double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& p
   }
   const double u = Unspanned(robot, keyframes);
   return u / (u + ratio);
-}
-
-namespace {
-// Variance of the mean over T of a Gauss-Markov error of unit variance and correlation time
-// tau: 2 (x - 1 + e^-x) / x^2, x = T / tau (1 at T = 0, about 2 tau / T when T >> tau).
-double MeanVarianceFactor(double T_s, double tau_s) {
-  const double x = tau_s > 0.0 ? std::max(T_s, 0.0) / tau_s : 0.0;
-  if (x < 1e-6) return 1.0;
-  return 2.0 * (x - 1.0 + std::exp(-x)) / (x * x);
-}
-}  // namespace
-
-double OptimizerStage::HeadingVarianceRatio(int robot) const {
-  const double ratio = options_.placement_heading_variance_ratio;
-  const double T_ref_s = options_.placement_heading_reference_s;
-  const double tau_s = options_.heading_error_correlation_s;
-  if (!(ratio > 0.0) || !(T_ref_s > 0.0) || !(tau_s > 0.0)) return ratio;
-  double own_lo = std::numeric_limits<double>::infinity(), own_hi = -own_lo;
-  for (const auto& [k, e] : own_.entries()) {
-    own_lo = std::min(own_lo, e.time_s);
-    own_hi = std::max(own_hi, e.time_s);
-  }
-  double mate_lo = std::numeric_limits<double>::infinity(), mate_hi = -mate_lo;
-  if (const auto* held = poses_.Find(robot)) {
-    for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
-      if (!held->known[k]) continue;
-      mate_lo = std::min(mate_lo, held->keyframes[k].time_s);
-      mate_hi = std::max(mate_hi, held->keyframes[k].time_s);
-    }
-  }
-  const double own_s = own_hi > own_lo ? own_hi - own_lo : 0.0;
-  const double mate_s = mate_hi > mate_lo ? mate_hi - mate_lo : 0.0;
-  return ratio * (MeanVarianceFactor(own_s, tau_s) + MeanVarianceFactor(mate_s, tau_s)) /
-         (2.0 * MeanVarianceFactor(T_ref_s, tau_s));
 }
 
 double OptimizerStage::Unspanned(int robot,
@@ -359,7 +325,7 @@ double OptimizerStage::RotationLever(int robot,
   }
   const double lever_m = std::sqrt(sum_m2 / m);
   const double u = Unspanned(robot, keyframes);
-  const double ratio = HeadingVarianceRatio(robot);
+  const double ratio = options_.placement_heading_variance_ratio;
   const auto map = teammate_objects_.find(robot);
   const bool headings = options_.placement_heading_weight <= 0.0 && ratio > 0.0 &&
                         map != teammate_objects_.end() &&

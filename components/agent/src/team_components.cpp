@@ -689,17 +689,6 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "fractions of the two missions so far the loops' keyframes do not span "
                        "(0: off)",
                 .min = 0.0});
-    spec.Param("placement_heading_reference_s", &o_.placement_heading_reference_s,
-               {.doc = "the ratio above holds for two missions of this length so far and "
-                       "follows the variance of the mean AHRS error over their lengths (0: "
-                       "fixed)",
-                .unit = "s",
-                .min = 0.0});
-    spec.Param("heading_error_correlation_s", &o_.heading_error_correlation_s,
-               {.doc = "correlation time of the AHRS's heading error (a Gauss-Markov process), "
-                       "for placement_heading_reference_s",
-                .unit = "s",
-                .min = 0.0});
     spec.Param("rigid_teammate_trajectories", &o_.rigid_teammate_trajectories,
                {.doc = "a placed teammate's trajectory is its local SLAM moved by the "
                        "map-to-map estimate (false: the global step's bent chain)"});

@@ -521,12 +521,6 @@ struct OptimizerStageOptions {
   // headings' difference's variance in units of one map's local heading variance (0: off);
   // 4 from tuning seeds 1-10, the marina and the airplane (docs/safe-merges.md).
   double placement_heading_variance_ratio = 4.0;
-  // The headings' difference is two means of the AHRS's error over the missions so far, whose
-  // variance falls with their length: with this > 0 the ratio above holds for two missions of
-  // this length and scales with g(T_own) + g(T_mate), g(T) the variance of the mean of a
-  // Gauss-Markov error of correlation time heading_error_correlation_s over T (0: fixed).
-  double placement_heading_reference_s = 0.0;
-  double heading_error_correlation_s = 120.0;
   // A teammate whose map reaches far from where its loops hold it waits: its rotation is
   // uncertain by about sigma sqrt(u R / (u + R)) (sigma one map's local heading error, R the
   // ratio above; sqrt(u) without both headings or with the ratio 0), and that rotation moves
@@ -613,9 +607,6 @@ class OptimizerStage {
                           std::vector<msgs::Pose2>* poses) const;
   // The fraction TurnTowardHeadings turns by (placement_heading_weight, or the loops' spans).
   double HeadingTurnFraction(int robot, const team::TeamProblem& problem) const;
-  // placement_heading_variance_ratio for `robot`, scaled by the missions' lengths so far
-  // (placement_heading_reference_s).
-  double HeadingVarianceRatio(int robot) const;
   // u of placement_heading_variance_ratio: the fractions of the own and the teammate's
   // missions so far that the keyframes of these loops (own, teammate keyframe) do not span.
   double Unspanned(int robot, const std::vector<std::pair<int, int>>& own_mate_keyframes) const;
