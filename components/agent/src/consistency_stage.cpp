@@ -48,10 +48,10 @@ struct ConsistencyStage::Impl {
     std::vector<Pose2> chain;
     std::vector<bool> real;
     own.Chain(&chain, &real, nullptr);
-    const Eigen::Matrix3d step =
+    const Eigen::Matrix3d own_step = DiagonalCovariance(0.1, 0.01);
+    for (const auto& p : chain) source.AddKeyframe(own_id(), p, own_step);
+    const Eigen::Matrix3d mate_step =
         DiagonalCovariance(options.chain_sigma_xy_m, options.chain_sigma_yaw_rad);
-    for (const auto& p : chain) source.AddKeyframe(own_id(), p, step);
-    const Eigen::Matrix3d& mate_step = step;
     std::set<int> robots;
     for (const auto& [robot, held] : poses.all()) robots.insert(robot);
     for (const auto& [robot, g] : matches.guesses) robots.insert(robot);

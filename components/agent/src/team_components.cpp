@@ -527,16 +527,6 @@ class ConsistencyFilterComponent final : public graph::Component {
     spec.Param("method", &method_, {.doc = "consistency filter", .choices = {"gcm", "pcm"}});
     spec.Param("min_clique_size", &o_.filter.min_clique_size,
                {.doc = "minimum consistent set", .min = 1});
-    spec.Param("chain_sigma_xy_m", &o_.chain_sigma_xy_m,
-               {.doc = "per-keyframe step sigma of the own and teammates' chains in the pair "
-                       "tests",
-                .unit = "m",
-                .min = 0.0});
-    spec.Param("chain_sigma_yaw_rad", &o_.chain_sigma_yaw_rad,
-               {.doc = "per-keyframe step sigma of the own and teammates' chains in the pair "
-                       "tests",
-                .unit = "rad",
-                .min = 0.0});
     spec.Param("map_sigma_m", &o_.map_sigma_m,
                {.doc = "map-to-map guess sigma in GCM", .unit = "m", .min = 0.0});
     spec.Param("map_sigma_rad", &o_.map_sigma_rad,

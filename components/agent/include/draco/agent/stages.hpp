@@ -348,8 +348,7 @@ class ScanExchangeStage {
 struct ConsistencyStageOptions {
   int robot_id = 0;
   consistency::FilterOptions filter;  // GCM; time_budget_ms forced to 0
-  // Per-step sigmas of the own and the teammates' keyframe chains in the pair tests (as the
-  // two-step PGO's teammate chains) and map-to-map guess sigmas in GCM.
+  // Teammate chain sigmas (as the two-step PGO's) and map-to-map guess sigmas in GCM.
   double chain_sigma_xy_m = 0.1;
   double chain_sigma_yaw_rad = 0.01;
   double map_sigma_m = 1.0;
