@@ -130,17 +130,24 @@ namespace {
 
 // Correspondences of the source moved by T: the nearest target point within the maximum
 // distance, then the closest trim_fraction of them. False when fewer than
-// min_correspondences remain.
+// min_correspondences remain. With `within` set, *within counts the source points whose
+// nearest target point is within sqrt(within2) (no more than the maximum distance): the
+// overlap's count, from the same queries.
 bool Match(const Cloud2& source, const Rigid& T, const KdTree2& tree, const IcpOptions& o,
-           Cloud2* moved, std::vector<Pair>* pairs) {
+           Cloud2* moved, std::vector<Pair>* pairs, double within2 = 0.0, int* within = nullptr) {
   const double max2 = o.max_correspondence_distance_m * o.max_correspondence_distance_m;
   for (std::size_t i = 0; i < source.size(); ++i) (*moved)[i] = T.R * source[i] + T.t;
   pairs->clear();
+  int hits = 0;
   for (std::size_t i = 0; i < source.size(); ++i) {
     double d2;
     const int j = tree.Nearest((*moved)[i], max2, &d2);
-    if (j >= 0) pairs->push_back(Pair{static_cast<int>(i), j, d2});
+    if (j >= 0) {
+      pairs->push_back(Pair{static_cast<int>(i), j, d2});
+      hits += d2 <= within2;
+    }
   }
+  if (within != nullptr) *within = hits;
   const auto keep = static_cast<std::size_t>(std::ceil(o.trim_fraction * pairs->size()));
   if (keep < pairs->size()) {
     std::nth_element(pairs->begin(), pairs->begin() + keep, pairs->end(),
@@ -223,7 +230,16 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
     T = FromPose(a.valid ? a.T_target_source : initial_T_target_source);
   }
   result.T_target_source = ToPose(T);
-  if (!result.valid || !Match(source, T, target.tree(), o, &moved, &pairs)) {
+  // The overlap comes from the final correspondences' queries when its distance is within
+  // theirs (the defaults: 0.5 against 3 m), otherwise from its own queries below. Either way
+  // it is the share of source points with a target point within overlap_distance_m, moved
+  // by T (FromPose(ToPose(T)) is T itself for a yaw in [-pi, pi]).
+  const bool overlap_in_match = o.overlap_distance_m <= o.max_correspondence_distance_m;
+  int overlap_hits = 0;
+  if (!result.valid ||
+      !Match(source, T, target.tree(), o, &moved, &pairs,
+             overlap_in_match ? o.overlap_distance_m * o.overlap_distance_m : 0.0,
+             overlap_in_match ? &overlap_hits : nullptr)) {
     result.valid = false;
     return result;
   }
@@ -258,7 +274,9 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
     }
   }
   result.overlap_ratio =
-      OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
+      overlap_in_match
+          ? static_cast<double>(overlap_hits) / static_cast<double>(source.size())
+          : OverlapRatio(source, target.tree(), result.T_target_source, o.overlap_distance_m);
   return result;
 }
 

@@ -46,36 +46,50 @@ void KdTree2::BuildRange(std::vector<Node>* nodes, int lo, int hi) {
 
 // Visits the points in a fixed order (each node's median, then the child on q's side, then
 // the other one unless the splitting line is farther than the best so far) and keeps the
-// last point at the smallest distance.
+// last point at the smallest distance. Depth first with an explicit stack: a far side waits
+// on the stack with its line's squared distance and is entered, when popped, only if that is
+// still within the best; that is the order of the recursion, without its calls.
 void KdTree2::NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2,
                            int* best) const {
+  struct Pending {
+    int lo, hi;
+    double line2;
+  };
+  Pending stack[64];  // one entry per level: 2^64 points are not held
+  int top = 0;
   const Eigen::Vector2d* p = sorted_.data();
-  while (hi - lo > kLeaf) {
-    const int mid = (lo + hi) / 2;
-    const int d = dim_[static_cast<std::size_t>(mid)];
-    const Eigen::Vector2d& m = p[mid];
-    const double diff = q[d] - m[d];
-    const double d2 = (m - q).squaredNorm();
-    if (d2 <= *best2) {
-      *best2 = d2;
-      *best = mid;
+  for (;;) {
+    while (hi - lo > kLeaf) {
+      const int mid = (lo + hi) / 2;
+      const int d = dim_[static_cast<std::size_t>(mid)];
+      const Eigen::Vector2d& m = p[mid];
+      const double diff = q[d] - m[d];
+      const double d2 = (m - q).squaredNorm();
+      if (d2 <= *best2) {
+        *best2 = d2;
+        *best = mid;
+      }
+      if (diff < 0.0) {
+        stack[top++] = Pending{mid + 1, hi, diff * diff};
+        hi = mid;
+      } else {
+        stack[top++] = Pending{lo, mid, diff * diff};
+        lo = mid + 1;
+      }
     }
-    if (diff < 0.0) {
-      NearestRange(lo, mid, q, best2, best);
-      if (!(diff * diff <= *best2)) return;
-      lo = mid + 1;  // the far side, as a loop
-    } else {
-      NearestRange(mid + 1, hi, q, best2, best);
-      if (!(diff * diff <= *best2)) return;
-      hi = mid;
+    for (int i = lo; i < hi; ++i) {
+      const double d2 = (p[i] - q).squaredNorm();
+      if (d2 <= *best2) {
+        *best2 = d2;
+        *best = i;
+      }
     }
-  }
-  for (int i = lo; i < hi; ++i) {
-    const double d2 = (p[i] - q).squaredNorm();
-    if (d2 <= *best2) {
-      *best2 = d2;
-      *best = i;
-    }
+    do {
+      if (top == 0) return;
+      --top;
+    } while (!(stack[top].line2 <= *best2));
+    lo = stack[top].lo;
+    hi = stack[top].hi;
   }
 }
 
@@ -87,8 +101,9 @@ int KdTree2::Nearest(const Eigen::Vector2d& q, double max_distance2, double* dis
   return best < 0 ? -1 : index_[static_cast<std::size_t>(best)];
 }
 
-// The same visiting order as NearestRange; a point is taken when the list is not full or it
-// is strictly closer than the list's worst (the first of equal points visited stays).
+// The same visiting order as NearestRange (a far side is entered while its line is strictly
+// closer than the list's worst); a point is taken when the list is not full or it is strictly
+// closer than the list's worst (the first of equal points visited stays).
 void KdTree2::KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* best) const {
   const Eigen::Vector2d* p = sorted_.data();
   auto offer = [&](int pos) {
@@ -102,22 +117,34 @@ void KdTree2::KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* bes
     if (best->size < best->k) ++best->size;
   };
   auto worst = [&] { return best->size < best->k ? 1e300 : best->slots[best->size - 1].first; };
-  while (hi - lo > kLeaf) {
-    const int mid = (lo + hi) / 2;
-    const int d = dim_[static_cast<std::size_t>(mid)];
-    const double diff = q[d] - p[mid][d];
-    offer(mid);
-    if (diff < 0.0) {
-      KNearestRange(lo, mid, q, best);
-      if (!(diff * diff < worst())) return;
-      lo = mid + 1;  // the far side, as a loop
-    } else {
-      KNearestRange(mid + 1, hi, q, best);
-      if (!(diff * diff < worst())) return;
-      hi = mid;
+  struct Pending {
+    int lo, hi;
+    double line2;
+  };
+  Pending stack[64];
+  int top = 0;
+  for (;;) {
+    while (hi - lo > kLeaf) {
+      const int mid = (lo + hi) / 2;
+      const int d = dim_[static_cast<std::size_t>(mid)];
+      const double diff = q[d] - p[mid][d];
+      offer(mid);
+      if (diff < 0.0) {
+        stack[top++] = Pending{mid + 1, hi, diff * diff};
+        hi = mid;
+      } else {
+        stack[top++] = Pending{lo, mid, diff * diff};
+        lo = mid + 1;
+      }
     }
+    for (int i = lo; i < hi; ++i) offer(i);
+    do {
+      if (top == 0) return;
+      --top;
+    } while (!(stack[top].line2 < worst()));
+    lo = stack[top].lo;
+    hi = stack[top].hi;
   }
-  for (int i = lo; i < hi; ++i) offer(i);
 }
 
 void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const {
