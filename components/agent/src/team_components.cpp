@@ -581,16 +581,19 @@ class ConsistencyFilterComponent final : public graph::Component {
                     std::to_string(o_.max_accepted_per_teammate_keyframe) + " accepted loops");
       }
     }
+    // The loop's standard deviations (square roots of its covariance's diagonal) after the
+    // decision columns.
     std::string loops =
         "id,own_robot,own_keyframe,teammate_robot,teammate_keyframe,x_m,y_m,yaw_rad,overlap,"
-        "accepted\n";
+        "accepted,sigma_x_m,sigma_y_m,sigma_yaw_rad\n";
     for (const auto& l : stage_->candidates()) {
-      char line[256];
-      std::snprintf(line, sizeof line, "%llu,%d,%d,%d,%d,%.4f,%.4f,%.5f,%.3f,%d\n",
+      const auto sd = [&](int i) { return std::sqrt(std::max(l.covariance[i * 4], 0.0)); };
+      char line[320];
+      std::snprintf(line, sizeof line, "%llu,%d,%d,%d,%d,%.4f,%.4f,%.5f,%.3f,%d,%.4g,%.4g,%.4g\n",
                     static_cast<unsigned long long>(l.id), l.own_robot, l.own_keyframe,
                     l.teammate_robot, l.teammate_keyframe, l.T_ownkf_teammatekf.x_m,
                     l.T_ownkf_teammatekf.y_m, l.T_ownkf_teammatekf.yaw_rad, l.overlap,
-                    (l.flags & msgs::kLoopAccepted) ? 1 : 0);
+                    (l.flags & msgs::kLoopAccepted) ? 1 : 0, sd(0), sd(1), sd(2));
       loops += line;
     }
     return WriteFiles(ctx, prefix_, {{"inter_loops.csv", loops}});
