@@ -1868,6 +1868,58 @@ TEST(ConsistencyStage, CandidatesAtWellSupportedTeammateKeyframesAreRedundant) {
   }
 }
 
+// max_candidates_per_teammate_keyframe: A's registrations of B's scans; at a bound one below
+// the most candidates any teammate keyframe has, A holds the first `bound` of each teammate
+// keyframe's candidates in arrival order and counts the others; off, it holds them all;
+// after B is forgotten its keyframes hold none.
+TEST(ConsistencyStage, CandidatesHeldPerTeammateKeyframeAreBounded) {
+  Mission run;
+  Simulate(&run);
+  const std::vector<msgs::InterRobotLoop> registered = RegisteredByA(run);
+  std::map<int, int> per_keyframe;
+  for (const auto& l : registered) ++per_keyframe[l.teammate_keyframe];
+  int most = 0;
+  for (const auto& [k, n] : per_keyframe) most = std::max(most, n);
+  ASSERT_GE(most, 2);
+  const int bound = most - 1;
+  std::vector<std::pair<int, int>> expected;  // (own, teammate keyframe) kept, in order
+  std::map<int, int> taken;
+  for (const auto& l : registered) {
+    if (taken[l.teammate_keyframe]++ < bound) {
+      expected.emplace_back(l.own_keyframe, l.teammate_keyframe);
+    }
+  }
+  ASSERT_LT(expected.size(), registered.size());
+  for (const int k_max : {0, bound}) {
+    auto options = TeamAgent::ConsistencyOptions(Options(kA));
+    options.max_accepted_per_teammate_keyframe = 0;
+    options.max_candidates_per_teammate_keyframe = k_max;
+    ConsistencyStage stage(options);
+    FeedOwnAndTeammatePoses(run, &stage);
+    msgs::TeamStepStats st;
+    // Two steps: the bound counts what earlier steps hold.
+    const std::size_t half = registered.size() / 2;
+    stage.Step(100.0, {registered.begin(), registered.begin() + half},
+               run.agent_a->matcher().matches(), &st);
+    stage.Step(101.0, {registered.begin() + half, registered.end()},
+               run.agent_a->matcher().matches(), &st);
+    if (k_max == 0) {
+      EXPECT_EQ(stage.candidates().size(), registered.size());
+      EXPECT_EQ(stage.teammates().at(kB).crowded, 0);
+      continue;
+    }
+    ASSERT_EQ(stage.candidates().size(), expected.size());
+    for (std::size_t i = 0; i < expected.size(); ++i) {
+      EXPECT_EQ(stage.candidates()[i].own_keyframe, expected[i].first) << i;
+      EXPECT_EQ(stage.candidates()[i].teammate_keyframe, expected[i].second) << i;
+    }
+    EXPECT_EQ(stage.teammates().at(kB).crowded,
+              static_cast<int>(registered.size() - expected.size()));
+    stage.Forget(kB);
+    EXPECT_TRUE(stage.candidates().empty());
+  }
+}
+
 // max_candidates_per_teammate: A's registrations of B's scans over two steps; A holds the
 // first 4 and counts the others; B's restart frees its share.
 TEST(ConsistencyStage, CandidatesHeldPerTeammateAreBounded) {

@@ -35,6 +35,8 @@ struct ConsistencyStage::Impl {
   std::map<int, int> held_per_teammate;  // candidates
   // Accepted loops per (teammate, teammate keyframe), after the last decision.
   std::map<std::pair<int, int>, int> accepted_at;
+  // Candidates held per (teammate, teammate keyframe).
+  std::map<std::pair<int, int>, int> held_at;
   std::uint64_t next_loop_id = 0;
   // The accepted set may have changed since the last Step looked for loops to send (every
   // accepted loop not received is sent in the step it is first accepted).
@@ -108,6 +110,8 @@ struct ConsistencyStage::Impl {
       }
     }
     held_per_teammate.erase(robot);
+    held_at.erase(held_at.lower_bound({robot, std::numeric_limits<int>::min()}),
+                  held_at.upper_bound({robot, std::numeric_limits<int>::max()}));
     if (!had) return;
     candidates = std::move(keep);
     filter = std::make_unique<cons::ConsistencyFilter>(options.filter);
@@ -247,6 +251,18 @@ std::vector<msgs::LoopClosureMessage> ConsistencyStage::Step(
       const auto it = a.accepted_at.find({l.teammate_robot, l.teammate_keyframe});
       if (it == a.accepted_at.end() || it->second < k_max) return false;
       if (const auto m = mates_.find(l.teammate_robot); m != mates_.end()) ++m->second.redundant;
+      --a.held_per_teammate[l.teammate_robot];
+      return true;
+    });
+  }
+  if (const int k_max = a.options.max_candidates_per_teammate_keyframe; k_max > 0) {
+    std::erase_if(fresh, [&](const msgs::InterRobotLoop& l) {
+      int& n = a.held_at[{l.teammate_robot, l.teammate_keyframe}];
+      if (n < k_max) {
+        ++n;
+        return false;
+      }
+      if (const auto m = mates_.find(l.teammate_robot); m != mates_.end()) ++m->second.crowded;
       --a.held_per_teammate[l.teammate_robot];
       return true;
     });

@@ -538,6 +538,11 @@ class ConsistencyFilterComponent final : public graph::Component {
                {.doc = "new candidates naming a teammate keyframe with this many accepted "
                        "loops are dropped and counted (0: off)",
                 .min = 0});
+    spec.Param("max_candidates_per_teammate_keyframe", &o_.max_candidates_per_teammate_keyframe,
+               {.doc = "new candidates naming a teammate keyframe that holds this many "
+                       "candidates are dropped and counted, so the candidates grow with the "
+                       "teammates' keyframes, not with the square of the mission (0: off)",
+                .min = 0});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
@@ -579,6 +584,12 @@ class ConsistencyFilterComponent final : public graph::Component {
                 "robot " + std::to_string(robot) + ": " + std::to_string(mate.redundant) +
                     " candidate loops dropped at teammate keyframes with " +
                     std::to_string(o_.max_accepted_per_teammate_keyframe) + " accepted loops");
+      }
+      if (mate.crowded > 0) {
+        ctx.Log(log::Level::kInfo,
+                "robot " + std::to_string(robot) + ": " + std::to_string(mate.crowded) +
+                    " candidate loops dropped at teammate keyframes holding " +
+                    std::to_string(o_.max_candidates_per_teammate_keyframe) + " candidates");
       }
     }
     // The loop's standard deviations (square roots of its covariance's diagonal) after the

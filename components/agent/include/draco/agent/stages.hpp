@@ -373,6 +373,13 @@ struct ConsistencyStageOptions {
   // the marina, the airplane and reporting seeds 101-130; at 120 min of the repeated marina
   // 5,795 candidates held against 8,917 (docs/benchmarks.md).
   int max_accepted_per_teammate_keyframe = 4;
+  // At most this many candidates held per teammate keyframe (accepted or not, registered here
+  // or received): later ones naming it are dropped and counted (Teammate::crowded; their keys
+  // stay). The bound above stops a teammate keyframe's candidates only once 4 are accepted; a
+  // new pass of the teammate is still registered against every earlier own pass before any
+  // is, so without this the candidates held, and the filter's work per step, grow with the
+  // square of the mission. With it they grow with the teammates' keyframes. 0: off.
+  int max_candidates_per_teammate_keyframe = 16;
 };
 
 class ConsistencyStage {
@@ -385,6 +392,7 @@ class ConsistencyStage {
     int ignored = 0;     // received loops naming unknown keyframes, broken, or not ours
     int over_bound = 0;  // candidates dropped at max_candidates_per_teammate
     int redundant = 0;   // candidates dropped at max_accepted_per_teammate_keyframe
+    int crowded = 0;     // candidates dropped at max_candidates_per_teammate_keyframe
   };
   explicit ConsistencyStage(const ConsistencyStageOptions& options);
   ~ConsistencyStage();
