@@ -44,31 +44,28 @@ void KdTree2::BuildRange(std::vector<Node>* nodes, int lo, int hi) {
   BuildRange(nodes, mid + 1, hi);
 }
 
-// Visits the points in a fixed order (each node's median, then the child on q's side, then
-// the other one unless the splitting line is farther than the best so far) and keeps the
-// last point at the smallest distance. Depth first with an explicit stack: a far side waits
-// on the stack with its line's squared distance and is entered, when popped, only if that is
-// still within the best; that is the order of the recursion, without its calls.
-void KdTree2::NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2,
-                           int* best) const {
+namespace {
+
+// The fixed visiting order of every search: each node's median, then the child on q's side,
+// then the other one if enter(its splitting line's squared distance) still holds when the
+// near side is done. Depth first with an explicit stack of far sides, the order a recursion
+// would take without its calls. visit(pos) is called for each point visited (tree order
+// positions).
+template <class Visit, class Enter>
+[[gnu::always_inline]] inline void Traverse(const Eigen::Vector2d* p, const std::uint8_t* dim, int lo, int hi,
+              const Eigen::Vector2d& q, Visit visit, Enter enter) {
   struct Pending {
     int lo, hi;
     double line2;
   };
   Pending stack[64];  // one entry per level: 2^64 points are not held
   int top = 0;
-  const Eigen::Vector2d* p = sorted_.data();
   for (;;) {
     while (hi - lo > kLeaf) {
       const int mid = (lo + hi) / 2;
-      const int d = dim_[static_cast<std::size_t>(mid)];
-      const Eigen::Vector2d& m = p[mid];
-      const double diff = q[d] - m[d];
-      const double d2 = (m - q).squaredNorm();
-      if (d2 <= *best2) {
-        *best2 = d2;
-        *best = mid;
-      }
+      const int d = dim[mid];
+      const double diff = q[d] - p[mid][d];
+      visit(mid);
       if (diff < 0.0) {
         stack[top++] = Pending{mid + 1, hi, diff * diff};
         hi = mid;
@@ -77,20 +74,38 @@ void KdTree2::NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* bes
         lo = mid + 1;
       }
     }
-    for (int i = lo; i < hi; ++i) {
-      const double d2 = (p[i] - q).squaredNorm();
-      if (d2 <= *best2) {
-        *best2 = d2;
-        *best = i;
-      }
-    }
+    for (int i = lo; i < hi; ++i) visit(i);
     do {
       if (top == 0) return;
       --top;
-    } while (!(stack[top].line2 <= *best2));
+    } while (!enter(stack[top].line2));
     lo = stack[top].lo;
     hi = stack[top].hi;
   }
+}
+
+}  // namespace
+
+// Enters a far side when its line is within the best so far and keeps the last point at the
+// smallest distance.
+void KdTree2::NearestRange(int lo, int hi, const Eigen::Vector2d& q, double* best2,
+                           int* best) const {
+  const Eigen::Vector2d* p = sorted_.data();
+  const Eigen::Vector2d query = q;
+  double b2 = *best2;  // locals, so that the lambdas keep them in registers
+  int b = *best;
+  Traverse(
+      p, dim_.data(), lo, hi, query,
+      [&](int pos) {
+        const double d2 = (p[pos] - query).squaredNorm();
+        if (d2 <= b2) {
+          b2 = d2;
+          b = pos;
+        }
+      },
+      [&](double line2) { return line2 <= b2; });
+  *best2 = b2;
+  *best = b;
 }
 
 int KdTree2::Nearest(const Eigen::Vector2d& q, double max_distance2, double* distance2) const {
@@ -101,9 +116,9 @@ int KdTree2::Nearest(const Eigen::Vector2d& q, double max_distance2, double* dis
   return best < 0 ? -1 : index_[static_cast<std::size_t>(best)];
 }
 
-// The same visiting order as NearestRange (a far side is entered while its line is strictly
-// closer than the list's worst); a point is taken when the list is not full or it is strictly
-// closer than the list's worst (the first of equal points visited stays).
+// Enters a far side while its line is strictly closer than the list's worst; a point is taken
+// when the list is not full or it is strictly closer than the list's worst (the first of equal
+// points visited stays).
 void KdTree2::KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* best) const {
   const Eigen::Vector2d* p = sorted_.data();
   auto offer = [&](int pos) {
@@ -117,34 +132,7 @@ void KdTree2::KNearestRange(int lo, int hi, const Eigen::Vector2d& q, KBest* bes
     if (best->size < best->k) ++best->size;
   };
   auto worst = [&] { return best->size < best->k ? 1e300 : best->slots[best->size - 1].first; };
-  struct Pending {
-    int lo, hi;
-    double line2;
-  };
-  Pending stack[64];
-  int top = 0;
-  for (;;) {
-    while (hi - lo > kLeaf) {
-      const int mid = (lo + hi) / 2;
-      const int d = dim_[static_cast<std::size_t>(mid)];
-      const double diff = q[d] - p[mid][d];
-      offer(mid);
-      if (diff < 0.0) {
-        stack[top++] = Pending{mid + 1, hi, diff * diff};
-        hi = mid;
-      } else {
-        stack[top++] = Pending{lo, mid, diff * diff};
-        lo = mid + 1;
-      }
-    }
-    for (int i = lo; i < hi; ++i) offer(i);
-    do {
-      if (top == 0) return;
-      --top;
-    } while (!(stack[top].line2 < worst()));
-    lo = stack[top].lo;
-    hi = stack[top].hi;
-  }
+  Traverse(p, dim_.data(), lo, hi, q, offer, [&](double line2) { return line2 < worst(); });
 }
 
 void KdTree2::KNearest(const Eigen::Vector2d& q, int k, std::vector<int>* indices) const {
