@@ -236,10 +236,9 @@ IcpResult AlignIcp(const Cloud2& source, IcpTarget& target,
   // by T (FromPose(ToPose(T)) is T itself for a yaw in [-pi, pi]).
   const bool overlap_in_match = o.overlap_distance_m <= o.max_correspondence_distance_m;
   int overlap_hits = 0;
-  if (!result.valid ||
-      !Match(source, T, target.tree(), o, &moved, &pairs,
-             overlap_in_match ? o.overlap_distance_m * o.overlap_distance_m : 0.0,
-             overlap_in_match ? &overlap_hits : nullptr)) {
+  if (!result.valid || !Match(source, T, target.tree(), o, &moved, &pairs,
+                              overlap_in_match ? o.overlap_distance_m * o.overlap_distance_m : 0.0,
+                              overlap_in_match ? &overlap_hits : nullptr)) {
     result.valid = false;
     return result;
   }

@@ -52,8 +52,9 @@ namespace {
 // would take without its calls. visit(pos) is called for each point visited (tree order
 // positions).
 template <class Visit, class Enter>
-[[gnu::always_inline]] inline void Traverse(const Eigen::Vector2d* p, const std::uint8_t* dim, int lo, int hi,
-              const Eigen::Vector2d& q, Visit visit, Enter enter) {
+[[gnu::always_inline]] inline void Traverse(const Eigen::Vector2d* p, const std::uint8_t* dim,
+                                            int lo, int hi, const Eigen::Vector2d& q, Visit visit,
+                                            Enter enter) {
   struct Pending {
     int lo, hi;
     double line2;
