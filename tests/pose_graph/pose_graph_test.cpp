@@ -405,6 +405,62 @@ TEST(PoseGraph2d, IncrementalUpdatesMatchABatchSolve) {
   }
 }
 
+// full_solve_max_boundary_chi2: on a walk whose loops all agree with the odometry (the
+// synthetic noise), most triggered full solves are answered by the window and the estimate
+// stays near the batch optimum; a loop that disagrees (1 m off at 5 cm sigma) is solved in full.
+TEST(PoseGraph2d, LoopsThatAgreeWithTheOlderGraphNeedNoFullSolve) {
+  const SyntheticGraph g = MakeGridWalk({.num_poses = 250, .seed = 11});
+  PoseGraph2d batch = BuildGraph(g);
+  ASSERT_TRUE(batch.Optimize().usable);
+  struct Run {
+    int full = 0, avoided = 0;
+    bool wrong_loop_solved_in_full = false;
+    double max_error_m = 0.0;  // against the batch optimum, at the end, no final solve
+  };
+  constexpr int kWrongAt = 200;
+  const auto run = [&](double max_chi2, bool wrong_loop) {
+    Run out;
+    PoseGraph2d inc;
+    inc.AddPose(0, g.truth[0]);
+    inc.AddPrior(0, g.truth[0], InformationFromSigmas(0.01, 0.01, 0.001));
+    const IncrementalOptions options{.window_size = 15, .full_solve_max_boundary_chi2 = max_chi2};
+    std::size_t e = 0;
+    for (int k = 1; k < static_cast<int>(g.truth.size()); ++k) {
+      inc.AddPose(k, Compose(inc.Pose(k - 1), g.edges[e].T_i_j));
+      for (; e < g.edges.size() && g.edges[e].j == k; ++e) {
+        inc.AddBetween(g.edges[e].i, k, g.edges[e].T_i_j, g.Information(),
+                       g.edges[e].loop ? FactorKind::kLoop : FactorKind::kOdometry);
+      }
+      if (wrong_loop && k == kWrongAt) {
+        // Pose 0 seen from k, 1 m off in x.
+        Pose2 T = Between(g.truth[k], g.truth[0]);
+        T.x_m += 1.0;
+        inc.AddBetween(k, 0, T, g.Information(), FactorKind::kLoop);
+      }
+      const SolveSummary s = inc.Update(options);
+      EXPECT_TRUE(s.usable) << s.report;
+      out.full += s.full ? 1 : 0;
+      out.avoided += s.full_avoided ? 1 : 0;
+      EXPECT_FALSE(s.full && s.full_avoided);
+      if (k == kWrongAt) out.wrong_loop_solved_in_full = s.full;
+    }
+    for (std::size_t k = 0; k < g.truth.size(); ++k) {
+      out.max_error_m = std::max(out.max_error_m, std::hypot(inc.Pose(k).x_m - batch.Pose(k).x_m,
+                                                             inc.Pose(k).y_m - batch.Pose(k).y_m));
+    }
+    return out;
+  };
+  const Run at_once = run(0.0, false), tried = run(11.34, false);
+  EXPECT_EQ(at_once.avoided, 0);
+  EXPECT_GT(tried.avoided, at_once.full / 2);
+  EXPECT_EQ(tried.full + tried.avoided, at_once.full);
+  // The noise is 5 cm per edge: the window's answers stay within 6 sigma of the optimum
+  // (0.15 m here).
+  EXPECT_LT(at_once.max_error_m, 0.02);
+  EXPECT_LT(tried.max_error_m, 0.3);
+  EXPECT_TRUE(run(11.34, true).wrong_loop_solved_in_full);
+}
+
 TEST(PoseGraph2d, DeferredFullSolvesComeAtMostEveryMinPosesAndReachTheBatchOptimum) {
   const SyntheticGraph g = MakeGridWalk({.num_poses = 250, .seed = 11});
   PoseGraph2d batch = BuildGraph(g);

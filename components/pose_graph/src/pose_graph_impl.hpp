@@ -132,6 +132,25 @@ struct PoseGraph2d::Impl {
     return n;
   }
 
+  // The largest chi2 of the factors and point observations that tie a pose at index >= first
+  // (or a point observed from one) to a pose before first.
+  double MaxBoundaryChi2(std::size_t first) const {
+    double worst = 0.0;
+    for (std::size_t u = first; u < nodes.size(); ++u) {
+      for (const std::size_t k : nodes[u].factors) {
+        const Factor& f = factors[k];
+        if (NewestNode(f) == u && OldestNode(f) < first) worst = std::max(worst, FactorChi2(f));
+      }
+      for (const std::size_t k : nodes[u].observations) {
+        for (const std::size_t o : points[PointIndex(observations[k].point)].observations) {
+          if (index.at(observations[o].pose) < first)
+            worst = std::max(worst, ObservationChi2(observations[o]));
+        }
+      }
+    }
+    return worst;
+  }
+
   std::size_t PointIndex(PointId id) const {
     const auto it = point_index.find(id);
     if (it == point_index.end()) {

@@ -202,6 +202,7 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
       n - m.nodes_at_last_full >= static_cast<std::size_t>(options.full_solve_every)) {
     full = true;
   }
+  const bool forced = full;
   if (!full && options.full_solve_on_loop) {
     const std::size_t first = n - w;
     for (std::size_t k = m.factors_at_last_solve; k < m.factors.size() && !full; ++k) {
@@ -221,6 +222,19 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
   } else if (!full && m.full_pending &&
              n - m.nodes_at_last_full >= static_cast<std::size_t>(options.full_solve_min_poses)) {
     full = true;
+  }
+  if (full && !forced && options.full_solve_max_boundary_chi2 > 0.0) {
+    // Try the window first: a loop that agrees with the older graph needs no full solve.
+    SolveSummary local = OptimizeWindow(options.window_size, options.local);
+    if (local.usable &&
+        m.MaxBoundaryChi2(n - std::min(n, w)) <= options.full_solve_max_boundary_chi2) {
+      m.full_pending = false;
+      local.full_avoided = true;
+      return local;
+    }
+    SolveSummary out = Optimize(options.full);
+    out.time_s += local.time_s;
+    return out;
   }
   return full ? Optimize(options.full) : OptimizeWindow(options.window_size, options.local);
 }

@@ -43,6 +43,7 @@ pg::IncrementalOptions SolveSettings(const LocalSlamOptions& o) {
   pg::IncrementalOptions inc;
   inc.window_size = o.heading_bias_sigma_rad > 0 ? 2 * o.window_size : o.window_size;
   inc.full_solve_min_poses = o.full_solve_min_keyframes;
+  inc.full_solve_max_boundary_chi2 = o.full_solve_max_boundary_chi2;
   inc.full.num_threads = 1;
   if (!o.bounds_line_search) {
     inc.full.bounded_line_search_iterations = 0;
@@ -819,6 +820,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   if (o.landmarks) m.ObserveLandmarks(k);
   const pg::SolveSummary s = m.graph.Update(SolveSettings(o));
   result.full_solve = s.full;
+  result.full_solve_avoided = s.full_avoided;
   result.solve_time_s = s.time_s;
   return result;
 }

@@ -52,6 +52,11 @@ class LocalSlamComponent final : public graph::Component {
     spec.Param("full_solve_min_keyframes", &o_.full_solve_min_keyframes,
                {.doc = "a triggered full pose-graph solve waits until this many keyframes were "
                        "added since the last one (0: at once)"});
+    spec.Param("full_solve_max_boundary_chi2", &o_.full_solve_max_boundary_chi2,
+               {.doc = "a triggered full solve is tried as a window solve first; its answer "
+                       "stands when every factor tying the window to older keyframes has chi2 "
+                       "at most this (0: off)",
+                .min = 0});
     spec.Param("loop_max_candidates", &o_.loop_max_candidates,
                {.doc = "candidates registered per keyframe", .min = 0});
     spec.Param("pcm_chi2_threshold", &o_.pcm_chi2_threshold,
@@ -230,6 +235,7 @@ class LocalSlamComponent final : public graph::Component {
         loops_icp_ambiguous_ += r.loops_icp_ambiguous;
         (r.full_solve ? full_solves_ : window_solves_) += 1;
         (r.full_solve ? full_solve_s_ : window_solve_s_) += r.solve_time_s;
+        full_solves_avoided_ += r.full_solve_avoided ? 1 : 0;
       } catch (const std::exception& e) {
         pending_keyframes_.pop_front();
         return Status::Error(e.what());
@@ -244,10 +250,12 @@ class LocalSlamComponent final : public graph::Component {
   Status Stop(Context& ctx) override {
     if (slam_.Flush()) ++full_solves_;  // the files below hold the last full solve
     if (full_solves_ + window_solves_ > 0) {
-      char line[200];
+      char line[256];
       std::snprintf(line, sizeof(line),
-                    "local SLAM: %d full solves (%.2f s), %d window solves (%.2f s)", full_solves_,
-                    full_solve_s_, window_solves_, window_solve_s_);
+                    "local SLAM: %d full solves (%.2f s), %d window solves (%.2f s; %d of them "
+                    "instead of a full solve)",
+                    full_solves_, full_solve_s_, window_solves_, window_solve_s_,
+                    full_solves_avoided_);
       log::Info(prefix_ + line);
     }
     const auto count = [&](int n, const std::string& what) {
@@ -355,6 +363,7 @@ class LocalSlamComponent final : public graph::Component {
   int loops_ambiguous_ = 0;
   int loops_chain_rejected_ = 0;
   int loops_icp_ambiguous_ = 0;
+  int full_solves_avoided_ = 0;
   int full_solves_ = 0, window_solves_ = 0;  // pose-graph solves, and their time
   double full_solve_s_ = 0.0, window_solve_s_ = 0.0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;

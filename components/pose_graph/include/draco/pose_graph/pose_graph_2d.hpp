@@ -134,6 +134,9 @@ struct SolveSummary {
   bool usable = false;     // Ceres left a usable solution (converged or hit the iteration cap)
   bool converged = false;  // a tolerance was met
   bool full = true;        // false for a local window solve
+  // A triggered full solve the window's answer made unnecessary
+  // (IncrementalOptions::full_solve_max_boundary_chi2).
+  bool full_avoided = false;
   int iterations = 0;
   int variable_poses = 0;
   int factors = 0;            // factors in the solved problem
@@ -154,6 +157,12 @@ struct IncrementalOptions {
   // solves meanwhile; 0 or 1: at once): on repeated passes nearly every pose re-observes an old
   // landmark or closes a loop, and a full solve per pose makes each step cost the whole graph.
   int full_solve_min_poses = 0;
+  // A triggered full solve first tries the window: when, after the window solve, every factor
+  // and point observation that ties a window pose to a pose outside it (held constant) has
+  // chi2 at most this, the new loop or sighting agrees with the older graph and the window's
+  // answer stands; otherwise the full solve runs from it. Forced full solves (the first
+  // window, full_solve_every) are not tried. 0: off (every triggered full solve runs).
+  double full_solve_max_boundary_chi2 = 0.0;
   SolverOptions local{
       .linear_solver = LinearSolver::kDenseNormalCholesky, .max_iterations = 10, .num_threads = 1};
   SolverOptions full{};

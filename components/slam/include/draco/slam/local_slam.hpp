@@ -185,6 +185,10 @@ struct LocalSlamOptions {
   // were added since the last one; window solves meanwhile (pose_graph::IncrementalOptions::
   // full_solve_min_poses; 0: at once).
   int full_solve_min_keyframes = 0;
+  // A triggered full solve is tried as a window solve first, and the window's answer stands
+  // when every factor and landmark sighting tying the window to older keyframes then has chi2
+  // at most this (pose_graph::IncrementalOptions::full_solve_max_boundary_chi2; 0: off).
+  double full_solve_max_boundary_chi2 = 0.0;
 };
 
 // One point landmark candidate of a keyframe: a compact isolated cluster of its points.
@@ -238,6 +242,7 @@ struct StepResult {
   // Candidates the ICP ambiguity test found (dropped, or kept with a wider factor covariance).
   int loops_icp_ambiguous = 0;
   bool full_solve = false;
+  bool full_solve_avoided = false;  // triggered, but the window's answer agreed (see options)
   double solve_time_s = 0.0;
 };
 
