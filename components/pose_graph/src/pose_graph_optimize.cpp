@@ -224,10 +224,10 @@ SolveSummary PoseGraph2d::Update(const IncrementalOptions& options) {
     full = true;
   }
   if (full && !forced && options.full_solve_max_boundary_chi2 > 0.0) {
-    // Try the window first: a loop that agrees with the older graph needs no full solve.
+    // Try the window first (not forced, so n > w): a loop that agrees with the older graph
+    // needs no full solve.
     SolveSummary local = OptimizeWindow(options.window_size, options.local);
-    if (local.usable &&
-        m.MaxBoundaryChi2(n - std::min(n, w)) <= options.full_solve_max_boundary_chi2) {
+    if (local.usable && m.MaxBoundaryChi2(n - w) <= options.full_solve_max_boundary_chi2) {
       m.full_pending = false;
       local.full_avoided = true;
       return local;
