@@ -5,14 +5,19 @@
 //   build-pg/tests/pose_graph/pose_graph_bench --benchmark_repetitions=3
 //       --benchmark_report_aggregates_only=true   (one command line)
 //
+// DRACO_BENCH_G2O=FILE adds the Solve rows for that file too (e.g. a run's
+// <robot>.pose_graph.g2o, written by the local SLAM: its own graph, loops and landmarks).
+//
 // Rows named baseline use Ceres' defaults for this problem class (Levenberg-Marquardt,
 // sparse normal Cholesky with SuiteSparse, one thread) so ratios stay meaningful on a noisy
 // machine.
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "draco/pose_graph/g2o.hpp"
 #include "synthetic.hpp"
@@ -23,10 +28,14 @@ namespace {
 const std::filesystem::path kData =
     std::filesystem::path(DRACO_SOURCE_DIR) / "tests/data/pose-graphs";
 
+// A bare name is one of tests/data/pose-graphs; a path is read as given.
 const G2oGraph& Dataset(const std::string& file) {
   static std::map<std::string, G2oGraph> cache;
   auto it = cache.find(file);
-  if (it == cache.end()) it = cache.emplace(file, ReadG2o(kData / file)).first;
+  if (it == cache.end()) {
+    const std::filesystem::path path(file);
+    it = cache.emplace(file, ReadG2o(path.has_parent_path() ? path : kData / file)).first;
+  }
   return it->second;
 }
 
@@ -150,10 +159,14 @@ void BM_KeyframeAt1000(benchmark::State& state, int mode) {
 }
 
 void Register() {
-  for (const char* file : {"intel.g2o", "manhattan.g2o", "city10000.g2o"}) {
+  std::vector<std::string> files{"intel.g2o", "manhattan.g2o", "city10000.g2o"};
+  if (const char* extra = std::getenv("DRACO_BENCH_G2O"); extra && *extra)
+    files.emplace_back(extra);
+  for (const std::string& file : files) {
+    const std::string label = std::filesystem::path(file).filename().string();
     for (const Config& c : kConfigs) {
-      benchmark::RegisterBenchmark(("Solve/" + std::string(file) + "/" + c.name).c_str(), BM_Solve,
-                                   std::string(file), c.options)
+      benchmark::RegisterBenchmark(("Solve/" + label + "/" + c.name).c_str(), BM_Solve, file,
+                                   c.options)
           ->Unit(benchmark::kMillisecond)
           ->UseRealTime()
           ->Iterations(1);
