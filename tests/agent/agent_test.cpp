@@ -1620,6 +1620,74 @@ msgs::ObjectMap Moved(const msgs::ObjectMap& map, const Pose2& T_other_map) {
   return out;
 }
 
+// A 6 x 3 grid of identical piles 5 m apart, whole in both maps: the votes alone find it
+// ambiguous (shifted by a spacing it lays 15 of 18 piles). With vote_miss_weight the stage
+// charges every shift for the teammate piles it lays on water where the own keyframes looked
+// and returned nothing, and matches; without the own keyframes there is no such evidence.
+TEST(GraphMatcherStage, OwnSonarReturnsSettleAGridTheVotesFindAmbiguous) {
+  msgs::ObjectMap own;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      msgs::Object o;
+      o.id = static_cast<std::uint32_t>(own.objects.size());
+      o.center = o.rect_center = {5.0 * i + 0.05 * ((i * 7 + j * 3) % 5 - 2), 5.0 * j};
+      o.length_m = o.breadth_m = 0.6;
+      o.num_points = 40;
+      own.objects.push_back(o);
+    }
+  }
+  own.map_heading_rad = 0.2;
+  const Pose2 T_a_1{12.0, -7.0, 0.4};
+  msgs::ObjectMap mate = Moved(own, reg::Inverse(T_a_1));
+  mate.map_heading_rad = 0.2 + 0.4 + 0.02;
+  const auto run = [&](bool evidence, bool keyframes) {
+    GraphMatcherStageOptions o;
+    o.robot_id = kA;
+    o.match_period_s = 0.0;
+    o.matcher.landmarks = false;
+    o.matcher.min_assignments = 100;  // no spectral answer: the votes alone
+    o.matcher.vote_miss_weight = evidence ? 2.0 : 0.0;
+    o.coverage.range_m = 30.0;
+    GraphMatcherStage stage(o);
+    if (keyframes) {
+      // Keyframes along y = -10 m looking north, each returning ten points on every pile.
+      msgs::KeyframeTrajectory traj;
+      int k = 0;
+      for (double x = -15.0; x <= 40.0; x += 2.5, ++k) {
+        msgs::Keyframe kf;
+        kf.index = k;
+        kf.time_s = k;
+        kf.T_odom_body = {x, -10.0, std::numbers::pi / 2};
+        const Pose2 T_body_map = reg::Inverse(kf.T_odom_body);
+        for (const auto& ob : own.objects) {
+          for (int n = 0; n < 10; ++n) {
+            const double t = 2.0 * std::numbers::pi * n / 10.0;
+            kf.points_body.push_back(reg::Apply(T_body_map, {ob.center.x_m + 0.3 * std::cos(t),
+                                                             ob.center.y_m + 0.3 * std::sin(t)}));
+          }
+        }
+        stage.OnKeyframe(kf);
+        traj.keyframes.push_back({k, double(k), kf.T_odom_body});
+      }
+      stage.OnTrajectory(traj);
+    }
+    msgs::FleetHeader h;
+    h.robot_id = 1;
+    stage.OnTeammateObjectMap(h, mate);
+    msgs::TeamStepStats st;
+    stage.Step(10.0, own, 1, &st);
+    const auto& g = stage.matches().guesses.at(1);
+    return std::pair{g.matched, g.match.T_a_b};
+  };
+  EXPECT_FALSE(run(false, true).first);  // off: ambiguous
+  EXPECT_FALSE(run(true, false).first);  // no own keyframes: no evidence
+  const auto [matched, T] = run(true, true);
+  ASSERT_TRUE(matched);
+  const Pose2 e = reg::Between(T_a_1, T);
+  EXPECT_LT(std::hypot(e.x_m, e.y_m), 0.5);
+  EXPECT_LT(std::abs(e.yaw_rad), 0.02);
+}
+
 TEST(GraphMatcherStage, ChainsAnUnmatchedTeammateThroughASharedEstimate) {
   // Own map: 10 rectangles of distinct sizes, scattered.
   msgs::ObjectMap own;

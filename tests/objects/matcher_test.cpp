@@ -377,6 +377,76 @@ TEST(Matcher, VotesCrossCheckRefusesARowAndKeepsADistinctiveScene) {
   EXPECT_TRUE(Close(on.T_a_b, truth, 1.0, 3.0));
 }
 
+// A 6 x 3 grid of identical piles 5 m apart, seen whole by both robots. Shifted by one
+// spacing the votes still lay 15 of its 18 piles (12 shifted across the rows), a runner-up
+// too close to the truth's 18 for the votes to answer. The own sonar looked past every edge
+// of the grid: under a shift a row or column of teammate piles lands on water where it
+// returned nothing, and with vote_miss_weight those misses are charged.
+TEST(Matcher, VotesChargeTeammateObjectsOnOwnEmptyWater) {
+  std::vector<msgs::Object> world;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      msgs::Object o;
+      o.id = static_cast<std::uint32_t>(world.size());
+      o.center = o.rect_center = {5.0 * i, 5.0 * j};
+      o.length_m = o.breadth_m = 0.6;
+      world.push_back(o);
+    }
+  }
+  std::vector<int> all(world.size());
+  for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<int>(k);
+  const msgs::Pose2 T_w_a{-5.0, 3.0, 0.3}, T_w_b{40.0, -2.0, -1.1};
+  const msgs::Pose2 truth = Compose(Inverse(T_w_a), T_w_b);
+  std::mt19937_64 rng(3);
+  const WorldOptions wo{.center_noise_m = 0.1, .size_noise_m = 0.02};
+  const auto view = [&](const std::vector<int>& seen, const msgs::Pose2& T_w) {
+    msgs::ObjectMap m = View(world, seen, T_w, 0, wo, &rng);
+    for (auto& o : m.objects) o.rect_center = o.center;
+    return m;
+  };
+  msgs::ObjectMap a = view(all, T_w_a);
+  msgs::ObjectMap b = view(all, T_w_b);
+  a.map_heading_rad = 0.3 + 0.02;
+  b.map_heading_rad = -1.1 - 0.03;
+  // Robot a drove along y = -10 m looking north (30 m range): its sonar saw the whole grid
+  // and the water around it; its returns are ten points on each pile.
+  std::vector<msgs::Pose2> sensor;
+  for (double x = -15.0; x <= 40.0; x += 2.5)
+    sensor.push_back(Compose(Inverse(T_w_a), msgs::Pose2{x, -10.0, M_PI / 2}));
+  const Coverage coverage_a(sensor, {.range_m = 30.0});
+  std::vector<msgs::Point2> returns;
+  for (const auto& o : a.objects) {
+    for (int k = 0; k < 10; ++k) {
+      const double t = 2.0 * M_PI * k / 10.0;
+      returns.push_back({o.center.x_m + 0.3 * std::cos(t), o.center.y_m + 0.3 * std::sin(t)});
+    }
+  }
+  const PointCounts points_a(returns);
+  MatcherOptions o;
+  o.landmarks = false;
+  o.min_assignments = 100;  // no spectral answer: the votes alone
+  o.vote_miss_weight = 0.0;
+  const auto without = MatchObjectMaps(a, b, o, &coverage_a, nullptr, &points_a);
+  EXPECT_NE(without.status, MatchStatus::kMatched);  // support alone: the grid is ambiguous
+  o.vote_miss_weight = 2.0;
+  const auto no_points = MatchObjectMaps(a, b, o, &coverage_a);  // no own returns: no evidence
+  EXPECT_NE(no_points.status, MatchStatus::kMatched);
+  const auto with = MatchObjectMaps(a, b, o, &coverage_a, nullptr, &points_a);
+  ASSERT_EQ(with.status, MatchStatus::kMatched);
+  EXPECT_TRUE(with.by_votes);
+  EXPECT_TRUE(Close(with.T_a_b, truth, 0.5, 2.0));
+  EXPECT_EQ(with.num_inliers, 18);
+  EXPECT_LT(with.ambiguity, 0.5);
+  // A teammate grid of 4 x 3 beside an own grid of 6 x 3 still fits two places without a miss
+  // (own piles 0-3 or 2-5 of each row): the evidence leaves it ambiguous.
+  std::vector<int> part;
+  for (int k = 0; k < 12; ++k) part.push_back(k);
+  msgs::ObjectMap b_part = view(part, T_w_b);
+  b_part.map_heading_rad = b.map_heading_rad;
+  const auto partial = MatchObjectMaps(a, b_part, o, &coverage_a, nullptr, &points_a);
+  EXPECT_NE(partial.status, MatchStatus::kMatched);
+}
+
 TEST(Matcher, CoverageAndMisses) {
   const RowScene s = MakeRow(1);
   const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};

@@ -137,6 +137,37 @@ class ObjectMapperComponent final : public graph::Component {
                 .origin = "true: the first reading's error reached 9 deg on the marina (alpha), "
                           "the mean's gap to true loops 9.2 deg at most on tuning seeds 1-10, "
                           "marina and airplane: docs/safe-merges.md, safeguard 1"});
+    auto& m = o_.mapper;
+    spec.Param("dbscan_eps_m", &m.dbscan.eps_m,
+               {.doc = "DBSCAN neighbourhood radius",
+                .unit = "m",
+                .min = 0.05,
+                .max = 20.0,
+                .origin = "the reference's 1.5 m (docs/front-end.md, section 1)"});
+    spec.Param("dbscan_min_points", &m.dbscan.min_points,
+               {.doc = "DBSCAN: a point is core with this many neighbours within eps, itself "
+                       "included",
+                .min = 1,
+                .max = 10000,
+                .origin = "the reference's 20"});
+    spec.Param("min_points", &m.min_points,
+               {.doc = "n_min: clusters with fewer points are dropped",
+                .min = 1,
+                .max = 100000,
+                .origin = "the reference's 20"});
+    spec.Param("min_length_m", &m.min_length_m,
+               {.doc = "d_min: clusters whose long side is shorter are dropped",
+                .unit = "m",
+                .min = 0.0,
+                .max = 1000.0,
+                .origin = "1 m keeps piles and boats (the reference: 3 m; docs/front-end.md)"});
+    spec.Param("split_min_length_m", &m.split_min_length_m,
+               {.doc = "clusters at least this long and not slender become their straight "
+                       "segments (0: off)",
+                .unit = "m",
+                .min = 0.0,
+                .max = 1000.0,
+                .origin = "off: docs/front-end.md, \"Structure lines and segment splitting\""});
     spec.Param("prefix", &prefix_, {.doc = "output file name prefix, e.g. the robot name"});
   }
   Status Start(Context&) override {
@@ -209,6 +240,14 @@ class GraphMatcherComponent final : public graph::Component {
         "teammate_map_transforms",
         FromLink("teammates' verified map-to-map estimates (link): a teammate the own matching "
                  "does not place is chained through them"));
+    graph::InputOptions own_keyframes = Absorbed(
+        "own keyframes: where the own sonar looked and what it returned (the votes' negative "
+        "evidence, vote_miss_weight > 0)");
+    own_keyframes.required = false;
+    keyframe_ = spec.Input<msgs::Keyframe>("keyframe", own_keyframes);
+    own_keyframes.depth = 256;
+    own_keyframes.doc = "own optimised keyframes (with keyframe)";
+    trajectory_ = spec.Input<msgs::KeyframeTrajectory>("trajectory", own_keyframes);
     matches_ = spec.Output<msgs::MapMatches>("matches", "map-to-map guesses, every step");
     requests_out_ = spec.Output<msgs::ScanRequest>("scan_requests", "scan requests to send");
     RobotIdParam(spec, &o_.robot_id);
@@ -257,6 +296,23 @@ class GraphMatcherComponent final : public graph::Component {
                 .origin = "1.0 on tuning seeds 1-10, marina and airplane: 30 pairs right / 3 "
                           "wrong, lowest world precision 0.996, against 27 / 4 and 0.576 without "
                           "the check; 0.5 placed none of seed 2's 10: docs/safe-merges.md"});
+    spec.Param("vote_miss_weight", &o_.matcher.vote_miss_weight,
+               {.doc = "the votes and the cross-check score a translation by its support less "
+                       "this x the teammate objects it lays where the own sonar looked and saw "
+                       "(almost) nothing (0: off)",
+                .min = 0.0,
+                .origin = "2 with the cross-check on tuning seeds 21-45, marina and airplane: "
+                          "54 pairs right / 2 wrong at the end against 43 / 3 off: "
+                          "docs/safe-merges.md, \"The own sonar in the votes\""});
+    spec.Param("vote_miss_cross_check", &o_.matcher.vote_miss_cross_check,
+               {.doc = "... in the cross-check too (one-sided: favours hypotheses that put the "
+                       "teammate's map where the own sonar never looked)"});
+    spec.Param("vote_miss_margin_m", &o_.matcher.vote_miss_margin_m,
+               {.doc = "... an object's rectangle grown by this must hold own sonar points",
+                .unit = "m",
+                .min = 0.0});
+    spec.Param("vote_miss_min_points", &o_.matcher.vote_miss_min_points,
+               {.doc = "... at least this many of them", .min = 1});
     spec.Param("spectral_components", &o_.matcher.spectral_components,
                {.doc = "spectral relaxation per connected component of the affinity graph "
                        "(each component's positive eigenvector; competing components are "
@@ -270,10 +326,22 @@ class GraphMatcherComponent final : public graph::Component {
                        "<prefix>matches.csv (every matching tried)"});
   }
   Status Start(Context&) override {
+    evidence_ = o_.matcher.vote_miss_weight > 0.0;
+    if (evidence_ && !(keyframe_.connected() && trajectory_.connected()))
+      return Status::Fatal(
+          "vote_miss_weight > 0 needs the own keyframes: connect inputs keyframe and trajectory "
+          "(as config/graphs/team-stages.yaml does), or set vote_miss_weight: 0");
     stage_ = std::make_unique<GraphMatcherStage>(o_);
     return Status::Ok();
   }
   Status Process(Context&) override {
+    if (evidence_) {
+      in_.Add(keyframe_, kOwnKeyframe, [this](const auto& k) { stage_->OnKeyframe(k); });
+      in_.Add(trajectory_, kOwnTrajectory, [this](const auto& t) { stage_->OnTrajectory(t); });
+    } else {
+      keyframe_.TakeAll();
+      trajectory_.TakeAll();
+    }
     in_.Add(events_, kEvent, [this](const msgs::TeammateEvent& e) {
       if (e.kind == msgs::TeammateEventKind::kRestarted) stage_->Forget(e.robot_id);
     });
@@ -319,7 +387,10 @@ class GraphMatcherComponent final : public graph::Component {
       "time_s,teammate_robot,status,path,x_m,y_m,yaw_rad,inliers,ransac_inliers,ambiguity,"
       "own_objects,teammate_objects\n";
   std::unique_ptr<GraphMatcherStage> stage_;
+  bool evidence_ = false;  // the own keyframes feed the votes' negative evidence
   Absorber in_;
+  graph::In<msgs::Keyframe> keyframe_;
+  graph::In<msgs::KeyframeTrajectory> trajectory_;
   graph::In<msgs::OwnObjectMap> objects_;
   graph::In<msgs::TeammateObjectMap> maps_;
   graph::In<msgs::ScanRequest> requests_;

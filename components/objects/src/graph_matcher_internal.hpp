@@ -63,14 +63,29 @@ msgs::ObjectMatch MatchSpectral(const msgs::ObjectMap& a, const msgs::ObjectMap&
 // the cross-check of another path's answer (MatcherOptions::votes_cross_check).
 struct VotePeaks {
   std::vector<Pose2> T;
-  std::vector<int> support;
+  std::vector<double> score;  // support, less the own sonar's misses (VoteEvidence)
+};
+
+// The own sonar's negative evidence for the votes (MatcherOptions::vote_miss_weight): off
+// when the weight is 0 or either pointer is null.
+struct VoteEvidence {
+  const Coverage* coverage_a = nullptr;
+  const PointCounts* points_a = nullptr;
+  bool On(const MatcherOptions& options) const {
+    return options.vote_miss_weight > 0.0 && coverage_a && points_a && !coverage_a->empty();
+  }
 };
 
 // Translation votes under a known rotation (heading_votes.cpp); scored, when given, receives
 // every hypothesis they scored.
 msgs::ObjectMatch MatchByHeadingVotes(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                       double yaw_prior, const MatcherOptions& options,
-                                      VotePeaks* scored = nullptr);
+                                      const VoteEvidence& evidence, VotePeaks* scored = nullptr);
+
+// VoteSupport less vote_miss_weight x the teammate objects T_a_b places on own water
+// (VoteSupport when the evidence is off).
+double VoteScore(const msgs::ObjectMap& a, const msgs::ObjectMap& b, const Pose2& T,
+                 const MatcherOptions& options, const VoteEvidence& evidence);
 
 // Objects the votes may pair: both landmarks, or both clusters of similar shape.
 bool VoteCompatible(const msgs::Object& p, const msgs::Object& q, const MatcherOptions& options);

@@ -39,6 +39,16 @@ int VoteSupport(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
   return n;
 }
 
+double VoteScore(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
+                 const MatcherOptions& options, const VoteEvidence& evidence) {
+  const double support = VoteSupport(a, b, T, options);
+  if (!evidence.On(options)) return support;
+  const PointSupport seen =
+      SupportByPoints(b, T, *evidence.points_a, *evidence.coverage_a, options.vote_miss_margin_m,
+                      options.vote_miss_min_points);
+  return support - options.vote_miss_weight * seen.Misses();
+}
+
 bool Distinct(const ObjectMap& b, const Pose2& x, const Pose2& y, double distinct_m) {
   if (b.objects.empty()) return false;
   double moved = 0.0;
@@ -49,7 +59,8 @@ bool Distinct(const ObjectMap& b, const Pose2& x, const Pose2& y, double distinc
 
 // Translation votes under a known rotation (MatcherOptions::heading_votes).
 msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, double yaw_prior,
-                                      const MatcherOptions& options, VotePeaks* scored) {
+                                      const MatcherOptions& options, const VoteEvidence& evidence,
+                                      VotePeaks* scored) {
   msgs::ObjectMatch match;
   match.robot_a = a.robot_id;
   match.robot_b = b.robot_id;
@@ -77,6 +88,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
   struct Peak {
     Pose2 T;
     int support = 0;
+    double score = 0.0;  // support less the own sonar's misses
   };
   std::vector<Peak> peaks;
   const int steps = options.heading_vote_step_rad > 0.0
@@ -117,11 +129,14 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
     if (blocks.size() > 8) blocks.resize(8);
     for (const auto& [n, t] : blocks) {
       const Pose2 T{t.x_m, t.y_m, yaw};
-      peaks.push_back({T, support(T)});
+      const int n_in = support(T);
+      peaks.push_back({T, n_in,
+                       evidence.On(options) ? VoteScore(a, b, T, options, evidence)
+                                            : static_cast<double>(n_in)});
     }
   }
   if (scored) {
-    for (const auto& p : peaks) scored->T.push_back(p.T), scored->support.push_back(p.support);
+    for (const auto& p : peaks) scored->T.push_back(p.T), scored->score.push_back(p.score);
   }
   if (peaks.empty()) {
     match.status = MatchStatus::kTooFewInliers;
@@ -129,7 +144,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
   }
   std::size_t win = 0;
   for (std::size_t p = 1; p < peaks.size(); ++p) {
-    if (peaks[p].support > peaks[win].support) win = p;
+    if (peaks[p].score > peaks[win].score) win = p;
   }
   const auto distinct = [&](const Pose2& x, const Pose2& y) {
     double moved = 0.0;
@@ -137,14 +152,14 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
       moved += Distance(Transform(x, ob.center), Transform(y, ob.center));
     return moved / double(nb) > options.distinct_m;
   };
-  int runner_up = 0;
+  double runner_up = 0.0;
   for (const auto& p : peaks) {
-    if (p.support > runner_up && distinct(p.T, peaks[win].T)) runner_up = p.support;
+    if (p.score > runner_up && distinct(p.T, peaks[win].T)) runner_up = p.score;
   }
   match.num_ransac_inliers = peaks[win].support;
-  match.ambiguity = std::max(0, runner_up - 2) / std::max(1e-9, double(peaks[win].support - 2));
+  match.ambiguity = std::max(0.0, runner_up - 2.0) / std::max(1e-9, peaks[win].score - 2.0);
   const int min_inliers = std::max(options.min_inliers, options.heading_vote_min_inliers);
-  if (peaks[win].support < min_inliers) {
+  if (peaks[win].score < min_inliers) {  // the score: the support less the own misses
     match.status = MatchStatus::kTooFewInliers;
     return match;
   }

@@ -191,6 +191,9 @@ struct GraphMatcherStageOptions {
   int chain_min_agreeing = 3;
   double chain_agree_m = 1.0;
   double chain_agree_rad = 0.035;
+  // Where the own sonar looked, for the votes' negative evidence (matcher.vote_miss_weight;
+  // the own keyframes and their points come in through OnKeyframe / OnTrajectory).
+  objects::CoverageOptions coverage;
 };
 
 class GraphMatcherStage {
@@ -208,6 +211,9 @@ class GraphMatcherStage {
   void OnTeammateObjectMap(const msgs::FleetHeader& header, const msgs::ObjectMap& map);
   void OnScanRequest(const msgs::ScanRequest& request);                   // the reverse guess
   void OnTeammateTransforms(const msgs::TeammateTransforms& transforms);  // for chaining
+  // Own keyframes and poses: the own sonar's evidence (matcher.vote_miss_weight > 0 only).
+  void OnKeyframe(const msgs::Keyframe& keyframe) { own_.OnKeyframe(keyframe); }
+  void OnTrajectory(const msgs::KeyframeTrajectory& t) { own_.OnTrajectory(t); }
   void Forget(int robot);
   // Matches changed teammate maps against the own map; returns the scan requests to send.
   std::vector<msgs::ScanRequest> Step(double now_s, const msgs::ObjectMap& own,
@@ -244,6 +250,15 @@ class GraphMatcherStage {
   };
   std::map<int, std::map<int, Shared>> shared_;  // sender -> robot -> its estimate
   std::vector<Attempt> attempts_;
+  // The own sonar's coverage and points in the map frame, rebuilt when the keyframes change.
+  struct OwnView {
+    std::uint64_t version = 0;
+    objects::Coverage coverage;
+    objects::PointCounts points;
+  };
+  const OwnView& UpdateOwnView();
+  OwnKeyframes own_;
+  OwnView own_view_;
 };
 
 // ------------------------------------------------------------------------- 3. scans
