@@ -86,7 +86,7 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
     mate.own_version_at_try = own_version;
     ++st->matches_tried;
     const bool evidence = options_.matcher.vote_miss_weight > 0.0;
-    const OwnView* view = evidence ? &UpdateOwnView() : nullptr;
+    const OwnSonar* view = evidence ? &own_sonar_.Update(own_, options_.coverage) : nullptr;
     auto match = objects::MatchObjectMaps(own, mate.objects, options_.matcher,
                                           view ? &view->coverage : nullptr, nullptr,
                                           view ? &view->points : nullptr);
@@ -112,22 +112,6 @@ std::vector<msgs::ScanRequest> GraphMatcherStage::Step(double now_s, const msgs:
   }
   if (options_.chain_shared_transforms) ChainUnmatched(now_s, own, &out, st);
   return out;
-}
-
-const GraphMatcherStage::OwnView& GraphMatcherStage::UpdateOwnView() {
-  if (own_view_.version == own_.version()) return own_view_;
-  std::vector<Pose2> poses;
-  std::vector<msgs::Point2> points;
-  for (const auto& [k, e] : own_.entries()) {
-    if (!e.has_pose) continue;
-    poses.push_back(e.T_map_kf);
-    if (!e.has_points) continue;
-    for (const auto& p : e.points_kf) points.push_back(reg::Apply(e.T_map_kf, p));
-  }
-  own_view_.version = own_.version();
-  own_view_.coverage = objects::Coverage(poses, options_.coverage);
-  own_view_.points = objects::PointCounts(points);
-  return own_view_;
 }
 
 void GraphMatcherStage::ChainUnmatched(double now_s, const msgs::ObjectMap& own,

@@ -169,22 +169,6 @@ bool OptimizerStage::Contested(int robot,
   return false;
 }
 
-const OptimizerStage::OwnView& OptimizerStage::UpdateOwnView() {
-  if (own_view_.version == own_.version()) return own_view_;
-  std::vector<Pose2> poses;
-  std::vector<Point2> points;
-  for (const auto& [k, e] : own_.entries()) {
-    if (!e.has_pose) continue;
-    poses.push_back(e.T_map_kf);
-    if (!e.has_points) continue;
-    for (const auto& p : e.points_kf) points.push_back(reg::Apply(e.T_map_kf, p));
-  }
-  own_view_.version = own_.version();
-  own_view_.coverage = objects::Coverage(poses, options_.map_coverage);
-  own_view_.points = objects::PointCounts(points);
-  return own_view_;
-}
-
 void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                                         std::vector<Pose2>* poses) const {
   const auto map = teammate_objects_.find(robot);
@@ -334,7 +318,8 @@ double OptimizerStage::RotationLever(int robot,
 }
 
 std::optional<MapCheck> OptimizerStage::CheckMaps(
-    int robot, const std::vector<msgs::InterRobotLoop>& candidates, const OwnView& own_view) const {
+    int robot, const std::vector<msgs::InterRobotLoop>& candidates,
+    const OwnSonar& own_view) const {
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
   if (map == teammate_objects_.end() || map->second.map.objects.empty() ||
@@ -447,7 +432,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
         continue;
       }
       if (options_.max_map_miss_fraction < 1.0 || options_.max_heading_gap_rad > 0.0) {
-        if (const auto check = CheckMaps(robot, candidates, UpdateOwnView())) {
+        if (const auto check =
+                CheckMaps(robot, candidates, own_view_.Update(own_, options_.map_coverage))) {
           estimate_.map_checks[robot] = *check;
           if (check->contradicted) {
             held = "map";

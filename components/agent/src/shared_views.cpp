@@ -1,5 +1,5 @@
 // The views the stages share: the own keyframes (OwnKeyframes) and the teammates' keyframe
-// poses (TeammatePoses), stages.hpp.
+// poses (TeammatePoses), the own sonar for negative evidence (OwnSonar), stages.hpp.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -42,6 +42,22 @@ void OwnKeyframes::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
     ++version_;
     ++poses_version_;
   }
+}
+
+const OwnSonar& OwnSonar::Update(const OwnKeyframes& own, const objects::CoverageOptions& options) {
+  if (version == own.version()) return *this;
+  std::vector<msgs::Pose2> poses;
+  std::vector<msgs::Point2> returns;
+  for (const auto& [k, e] : own.entries()) {
+    if (!e.has_pose) continue;
+    poses.push_back(e.T_map_kf);
+    if (!e.has_points) continue;
+    for (const auto& p : e.points_kf) returns.push_back(reg::Apply(e.T_map_kf, p));
+  }
+  version = own.version();
+  coverage = objects::Coverage(poses, options);
+  points = objects::PointCounts(returns);
+  return *this;
 }
 
 bool OwnKeyframes::Known(int index) const {

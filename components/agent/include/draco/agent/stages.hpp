@@ -81,6 +81,16 @@ class OwnKeyframes {
   std::uint64_t poses_version_ = 0;
 };
 
+// The own sonar in the map frame, for negative evidence (the matcher's votes, the optimiser's
+// map check): where the own keyframes looked and the points they returned. Update rebuilds
+// both only when the keyframes changed since the last call.
+struct OwnSonar {
+  std::uint64_t version = ~std::uint64_t{0};
+  objects::Coverage coverage;
+  objects::PointCounts points;
+  const OwnSonar& Update(const OwnKeyframes& own, const objects::CoverageOptions& options);
+};
+
 // Teammates' keyframe poses as they shared them (index == position; gaps not known).
 class TeammatePoses {
  public:
@@ -250,15 +260,8 @@ class GraphMatcherStage {
   };
   std::map<int, std::map<int, Shared>> shared_;  // sender -> robot -> its estimate
   std::vector<Attempt> attempts_;
-  // The own sonar's coverage and points in the map frame, rebuilt when the keyframes change.
-  struct OwnView {
-    std::uint64_t version = 0;
-    objects::Coverage coverage;
-    objects::PointCounts points;
-  };
-  const OwnView& UpdateOwnView();
   OwnKeyframes own_;
-  OwnView own_view_;
+  OwnSonar own_sonar_;  // the votes' negative evidence
 };
 
 // ------------------------------------------------------------------------- 3. scans
@@ -617,14 +620,6 @@ class OptimizerStage {
                       const std::set<std::pair<int, std::uint64_t>>& loop_keys) const;
   // The object maps' agreement under the transform the accepted loops with `robot` imply;
   // nullopt when there is nothing to compare (no map, no loop with known poses).
-  // Where the own sonar looked and what it returned, in the own map frame; rebuilt when the
-  // own keyframes or their poses change.
-  struct OwnView {
-    std::uint64_t version = ~std::uint64_t{0};
-    objects::Coverage coverage;
-    objects::PointCounts points;
-  };
-  const OwnView& UpdateOwnView();
   // Turns a placed teammate toward the headings' rotation by HeadingTurnFraction.
   void TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                           std::vector<msgs::Pose2>* poses) const;
@@ -641,7 +636,7 @@ class OptimizerStage {
   // OptimizerStageOptions::max_rotation_lever_m's lever for `robot`'s accepted loops.
   double RotationLever(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
-                                    const OwnView& own_view) const;
+                                    const OwnSonar& own_view) const;
 
   OptimizerStageOptions options_;
   OwnKeyframes own_;
@@ -670,7 +665,7 @@ class OptimizerStage {
     msgs::ObjectMap map;
   };
   std::map<int, HeldObjects> teammate_objects_;
-  OwnView own_view_;
+  OwnSonar own_view_;  // the map check's evidence
   // A teammate's coverage, rebuilt when its poses or its map's time change.
   struct MateCoverage {
     std::uint64_t poses_seq = ~std::uint64_t{0};
