@@ -90,16 +90,15 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   }
   if (!options.votes_cross_check) return m;
   detail::VotePeaks peaks;
-  // The cross-check counts support alone: the own sonar's misses are charged only where the
-  // votes answer for themselves (one-sided, they favour hypotheses that put the teammate's map
-  // where the own sonar never looked: on tuning seed 22 they let through a landmark answer
-  // 17.7 m off that the support-only check refuses).
-  const detail::VoteEvidence none =
+  // The own sonar's misses count here only with vote_miss_cross_check (one-sided, they favour
+  // hypotheses that put the teammate's map where the own sonar never looked: on tuning seed 22
+  // they let through a landmark answer 17.7 m off that the support-only check refuses).
+  const detail::VoteEvidence checked =
       options.vote_miss_cross_check ? evidence : detail::VoteEvidence{};
-  msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options, none, &peaks);
+  msgs::ObjectMatch votes = MatchByHeadingVotes(a, b, *prior, options, checked, &peaks);
   if (peaks.score.empty()) return m;  // too few objects or no compatible pairs: no evidence
-  // The answer's support against the best distinct translation's, beyond a two-point sample.
-  const double answer_score = detail::VoteScore(a, b, m.T_a_b, options, none);
+  // The answer's score against the best distinct translation's, beyond a two-point sample.
+  const double answer_score = detail::VoteScore(a, b, m.T_a_b, options, checked);
   double rival = 0.0;
   for (std::size_t p = 0; p < peaks.score.size(); ++p) {
     if (peaks.score[p] > rival && detail::Distinct(b, peaks.T[p], m.T_a_b, options.distinct_m))
@@ -108,7 +107,7 @@ msgs::ObjectMatch MatchObjectMaps(const ObjectMap& a, const ObjectMap& b,
   const double ambiguity = std::max(0.0, rival - 2.0) / std::max(1e-9, answer_score - 2.0);
   if (rival < answer_score && ambiguity < options.cross_check_max_ambiguity) return m;
   if (votes.status == MatchStatus::kMatched &&
-      detail::VoteScore(a, b, votes.T_a_b, options, none) > answer_score)
+      detail::VoteScore(a, b, votes.T_a_b, options, checked) > answer_score)
     return votes;
   m.status = MatchStatus::kAmbiguous;
   m.ambiguity = ambiguity;
