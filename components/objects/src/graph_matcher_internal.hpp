@@ -82,8 +82,11 @@ msgs::ObjectMatch MatchByHeadingVotes(const msgs::ObjectMap& a, const msgs::Obje
                                       double yaw_prior, const MatcherOptions& options,
                                       const VoteEvidence& evidence, VotePeaks* scored = nullptr);
 
-// VoteSupport less vote_miss_weight x the teammate objects T_a_b places on own water
-// (VoteSupport when the evidence is off).
+// vote_miss_weight x the teammate objects T_a_b places where the own sonar looked and saw
+// (almost) nothing; 0 when the evidence is off.
+double VoteMissPenalty(const msgs::ObjectMap& b, const Pose2& T, const MatcherOptions& options,
+                       const VoteEvidence& evidence);
+// VoteSupport less VoteMissPenalty.
 double VoteScore(const msgs::ObjectMap& a, const msgs::ObjectMap& b, const Pose2& T,
                  const MatcherOptions& options, const VoteEvidence& evidence);
 

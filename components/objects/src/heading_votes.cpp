@@ -39,14 +39,18 @@ int VoteSupport(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
   return n;
 }
 
-double VoteScore(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
-                 const MatcherOptions& options, const VoteEvidence& evidence) {
-  const double support = VoteSupport(a, b, T, options);
-  if (!evidence.On(options)) return support;
+double VoteMissPenalty(const ObjectMap& b, const Pose2& T, const MatcherOptions& options,
+                       const VoteEvidence& evidence) {
+  if (!evidence.On(options)) return 0.0;
   const PointSupport seen =
       SupportByPoints(b, T, *evidence.points_a, *evidence.coverage_a, options.vote_miss_margin_m,
                       options.vote_miss_min_points);
-  return support - options.vote_miss_weight * seen.Misses();
+  return options.vote_miss_weight * seen.Misses();
+}
+
+double VoteScore(const ObjectMap& a, const ObjectMap& b, const Pose2& T,
+                 const MatcherOptions& options, const VoteEvidence& evidence) {
+  return VoteSupport(a, b, T, options) - VoteMissPenalty(b, T, options, evidence);
 }
 
 bool Distinct(const ObjectMap& b, const Pose2& x, const Pose2& y, double distinct_m) {
@@ -130,9 +134,7 @@ msgs::ObjectMatch MatchByHeadingVotes(const ObjectMap& a, const ObjectMap& b, do
     for (const auto& [n, t] : blocks) {
       const Pose2 T{t.x_m, t.y_m, yaw};
       const int n_in = support(T);
-      peaks.push_back({T, n_in,
-                       evidence.On(options) ? VoteScore(a, b, T, options, evidence)
-                                            : static_cast<double>(n_in)});
+      peaks.push_back({T, n_in, n_in - VoteMissPenalty(b, T, options, evidence)});
     }
   }
   if (scored) {
