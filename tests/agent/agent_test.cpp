@@ -824,7 +824,7 @@ struct TeammateOne {
     poses.header.incarnation = 1;
     poses.full = true;
     for (int k = 0; k < 8; ++k) poses.poses.push_back({k, double(k), {0.0, 2.0 * k, 0.5}, 10});
-    stage->OnKeyframePoses(poses);
+    if (stage != nullptr) stage->OnKeyframePoses(poses);
     auto& g = matches.guesses[1];
     g.robot_id = 1;
     g.matched = true;
@@ -959,6 +959,50 @@ TEST(OptimizerStage, WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops) {
     EXPECT_EQ(T.has_value(), c.placed) << c.ratio << " " << c.max_lever_m;
     EXPECT_EQ(held, c.placed ? "" : "lever") << c.ratio << " " << c.max_lever_m;
   }
+}
+
+// refine_min_pairs: loops place teammate 1 at T_0_1, but its six small objects lie on the own
+// ones under T_true, 0.64 m and 1.1 deg from it (the loops' maps bend where they meet). With
+// the refinement the placement is T_true; off, or with a move bound below the gap, T_0_1.
+TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
+  const Pose2 T_true = reg::Compose(Pose2{0.5, -0.4, 0.02}, TeammateOne(nullptr).T_0_1);
+  const msgs::Point2 piles[] = {{6.0, 3.0},   {10.0, -3.0}, {16.0, 2.0},
+                                {20.0, -2.0}, {2.0, 12.0},  {-4.0, 8.0}};
+  const auto run = [&](int min_pairs, double max_move_m) {
+    OptimizerStageOptions o = OtherRulesOptions();
+    o.refine_min_pairs = min_pairs;
+    o.refine_max_move_m = max_move_m;
+    o.max_map_miss_fraction = 1.0;  // no own sonar returns here: the map check off
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    const TeammateOne mate(&stage);
+    msgs::ObjectMap own, mate_map;
+    for (std::uint32_t i = 0; i < 6; ++i) {
+      msgs::Object ob;
+      ob.id = i;
+      ob.length_m = ob.breadth_m = 1.0;
+      ob.center = ob.rect_center = piles[i];
+      own.objects.push_back(ob);
+      ob.center = ob.rect_center = reg::Apply(reg::Inverse(T_true), piles[i]);
+      mate_map.objects.push_back(ob);
+    }
+    stage.OnOwnObjectMap(own);
+    stage.OnTeammateObjectMap(mate.poses.header, mate_map);
+    msgs::TeamStepStats st;
+    stage.Step(20.0, mate.Loops(traj, 11, {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}}), mate.matches,
+               &st);
+    EXPECT_EQ(stage.estimate().trajectories.count(1), 1u);
+    return stage.estimate().T_own_teammate.at(1);
+  };
+  const Pose2 T_0_1 = TeammateOne(nullptr).T_0_1;
+  const auto near = [](const Pose2& a, const Pose2& b) {
+    return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m) < 1e-3 &&
+           std::abs(a.yaw_rad - b.yaw_rad) < 1e-4;
+  };
+  EXPECT_TRUE(near(run(0, 3.0), T_0_1));   // off
+  EXPECT_TRUE(near(run(5, 3.0), T_true));  // refined onto the objects
+  EXPECT_TRUE(near(run(7, 3.0), T_0_1));   // six pairs are too few
+  EXPECT_TRUE(near(run(5, 0.3), T_0_1));   // the move is more than 0.3 m
 }
 
 TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {

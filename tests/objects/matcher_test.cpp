@@ -447,6 +447,56 @@ TEST(Matcher, VotesChargeTeammateObjectsOnOwnEmptyWater) {
   EXPECT_NE(partial.status, MatchStatus::kMatched);
 }
 
+TEST(Matcher, RefineUnderTransformFitsSmallObjectsAndLeavesWallsOut) {
+  // 12 piles scattered over 60 m, seen by both robots with 0.1 m of noise on every centre; a
+  // 40 m wall whose mean point each robot puts 6 m apart (they saw different ends of it).
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-30.0, 30.0);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  const msgs::Pose2 T_w_a{3.0, -4.0, 0.4}, T_w_b{-20.0, 11.0, -1.2};
+  msgs::ObjectMap a, b;
+  const auto add = [](msgs::ObjectMap* m, const msgs::Pose2& T_w_m, double x, double y,
+                      double length_m) {
+    msgs::Object o;
+    o.id = static_cast<std::uint32_t>(m->objects.size());
+    o.center = o.rect_center = Transform(Inverse(T_w_m), {x, y});
+    o.length_m = length_m;
+    o.breadth_m = std::min(length_m, 1.0);
+    m->objects.push_back(o);
+  };
+  for (int k = 0; k < 12; ++k) {
+    const double x = u(rng), y = u(rng);
+    add(&a, T_w_a, x + noise(rng), y + noise(rng), 1.0);
+    add(&b, T_w_b, x + noise(rng), y + noise(rng), 1.0);
+  }
+  add(&a, T_w_a, 40.0, 0.0, 40.0);
+  add(&b, T_w_b, 40.0, 6.0, 40.0);
+  const msgs::Pose2 truth = Compose(Inverse(T_w_a), T_w_b);
+  // Start 0.8 m and 2 deg off (where loops from one corner of the maps may leave it).
+  const msgs::Pose2 start = Compose(msgs::Pose2{0.6, -0.5, 0.035}, truth);
+  int pairs = 0;
+  const auto refined = RefineUnderTransform(a, b, start, {}, &pairs);
+  ASSERT_TRUE(refined.has_value());
+  EXPECT_EQ(pairs, 12);  // the walls are left out
+  EXPECT_TRUE(Close(*refined, truth, 0.15, 0.3));
+  EXPECT_FALSE(Close(start, truth, 0.5, 1.0));
+  // With the walls in, their 6 m disagreement drags the fit away from the truth.
+  RefineOptions with_walls;
+  with_walls.max_length_m = 100.0;
+  with_walls.gate_m = 7.0;
+  const auto dragged = RefineUnderTransform(a, b, start, with_walls);
+  ASSERT_TRUE(dragged.has_value());
+  EXPECT_FALSE(Close(*dragged, truth, 0.15, 0.3));
+  // Too few pairs within the gate: no answer. Placed 10 m off, nothing pairs within 1.5 m.
+  RefineOptions many;
+  many.min_pairs = 13;
+  EXPECT_FALSE(RefineUnderTransform(a, b, start, many).has_value());
+  const msgs::Pose2 far = Compose(msgs::Pose2{10.0, 0.0, 0.0}, truth);
+  int far_pairs = -1;
+  EXPECT_FALSE(RefineUnderTransform(a, b, far, {}, &far_pairs).has_value());
+  EXPECT_EQ(far_pairs, 0);
+}
+
 TEST(Matcher, CoverageAndMisses) {
   const RowScene s = MakeRow(1);
   const msgs::Pose2 T_w_b{40.0, -2.0, -1.1};

@@ -209,6 +209,36 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   }
 }
 
+void OptimizerStage::RefineOnObjects(int robot, std::vector<Pose2>* poses) const {
+  if (options_.refine_min_pairs <= 0) return;
+  const auto map = teammate_objects_.find(robot);
+  const auto* held = poses_.Find(robot);
+  if (map == teammate_objects_.end() || held == nullptr) return;
+  std::vector<Pose2> local, moved;
+  for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {
+    if (!held->known[k]) continue;
+    local.push_back(held->keyframes[k].T_map_kf);
+    moved.push_back((*poses)[k]);
+  }
+  const auto T = AlignSe2(local, moved);
+  if (!T) return;
+  objects::RefineOptions ro;
+  ro.gate_m = options_.refine_gate_m;
+  ro.max_length_m = options_.refine_max_length_m;
+  ro.min_pairs = options_.refine_min_pairs;
+  const auto refined = objects::RefineUnderTransform(own_objects_, map->second.map, *T, ro);
+  if (!refined) return;
+  // The move: refined * inv(T), applied to every pose the estimate holds for the teammate.
+  const Pose2 delta = reg::Compose(*refined, reg::Inverse(*T));
+  double sum_m2 = 0.0;
+  for (const auto& p : moved) {
+    const auto q = reg::Apply(delta, msgs::Point2{p.x_m, p.y_m});
+    sum_m2 += (q.x_m - p.x_m) * (q.x_m - p.x_m) + (q.y_m - p.y_m) * (q.y_m - p.y_m);
+  }
+  if (std::sqrt(sum_m2 / static_cast<double>(moved.size())) > options_.refine_max_move_m) return;
+  for (auto& p : *poses) p = reg::Compose(delta, p);
+}
+
 double OptimizerStage::HeadingTurnFraction(int robot, const team::TeamProblem& problem) const {
   if (options_.placement_heading_weight > 0.0) return options_.placement_heading_weight;
   const double ratio = options_.placement_heading_variance_ratio;
@@ -635,7 +665,9 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   }
   if (solved) {  // each teammate turned by HeadingTurnFraction (0: not at all)
     for (auto& [robot, poses] : placed) {
-      if (robot != own_id) TurnTowardHeadings(robot, problem, &poses);
+      if (robot == own_id) continue;
+      TurnTowardHeadings(robot, problem, &poses);
+      RefineOnObjects(robot, &poses);
     }
   }
   TeamEstimate next;

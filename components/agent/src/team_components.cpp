@@ -789,6 +789,24 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "from its loops' keyframes, weighted by the rotation the loops and "
                        "headings leave uncertain: L sqrt(u R / (u + R)) (<= 0: off)",
                 .unit = "m"});
+    spec.Param("refine_min_pairs", &o_.refine_min_pairs,
+               {.doc = "move a placed teammate onto the own object map: the rigid fit of its "
+                       "small objects to the nearest own ones, with at least this many pairs "
+                       "(0: off)",
+                .min = 0});
+    spec.Param("refine_gate_m", &o_.refine_gate_m,
+               {.doc = "pair a teammate object with the nearest own one within this",
+                .unit = "m",
+                .min = 0.0});
+    spec.Param("refine_max_length_m", &o_.refine_max_length_m,
+               {.doc = "objects longer than this are left out of the refinement",
+                .unit = "m",
+                .min = 0.0});
+    spec.Param("refine_max_move_m", &o_.refine_max_move_m,
+               {.doc = "keep the refinement only when it moves the teammate's keyframes by an "
+                       "RMS of at most this",
+                .unit = "m",
+                .min = 0.0});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 
+#include "draco/msgs/rigid_fit.hpp"
 #include "draco/objects/graph_matcher.hpp"
 
 namespace draco::objects {
@@ -77,6 +78,45 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
     if (best >= 0) pairs.push_back({a.objects[static_cast<std::size_t>(best)].id, ob.id, best_d});
   }
   return pairs;
+}
+
+std::optional<Pose2> RefineUnderTransform(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                          const Pose2& T_a_b, const RefineOptions& options,
+                                          int* pairs) {
+  if (pairs != nullptr) *pairs = 0;
+  const auto small = [&](const msgs::Object& o) { return o.length_m <= options.max_length_m; };
+  std::vector<msgs::Point2> own;
+  for (const auto& oa : a.objects) {
+    if (small(oa)) own.push_back(oa.center);
+  }
+  Pose2 T = T_a_b;
+  int n = 0;
+  for (int it = 0; it < std::max(1, options.iterations); ++it) {
+    std::vector<msgs::Point2> source, target;
+    for (const auto& ob : b.objects) {
+      if (!small(ob)) continue;
+      const auto p = Apply(T, ob.center);
+      const msgs::Point2* best = nullptr;
+      double best_d = options.gate_m;
+      for (const auto& q : own) {
+        const double d = std::hypot(q.x_m - p.x_m, q.y_m - p.y_m);
+        if (d <= best_d) {
+          best_d = d;
+          best = &q;
+        }
+      }
+      if (best == nullptr) continue;
+      source.push_back(ob.center);
+      target.push_back(*best);
+    }
+    n = static_cast<int>(source.size());
+    if (n < std::max(2, options.min_pairs)) return std::nullopt;
+    const auto fit = msgs::FitRigid2d(source, target);
+    if (!fit) return std::nullopt;
+    T = *fit;
+  }
+  if (pairs != nullptr) *pairs = n;
+  return T;
 }
 
 MapAgreement CompareObjectMaps(const msgs::ObjectMap& a, const msgs::ObjectMap& b,

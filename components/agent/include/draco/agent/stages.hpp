@@ -556,6 +556,17 @@ struct OptimizerStageOptions {
   // 52 m from tuning seeds 1-10, the marina and the airplane (docs/safe-merges.md): with one
   // map's local heading error of ~2 deg, about the judge's 2 m at the teammate's keyframes.
   double max_rotation_lever_m = 52.0;
+  // A placed teammate is moved onto the own object map: its small objects (length at most
+  // refine_max_length_m) placed by the estimate, each paired with the nearest small own object
+  // within refine_gate_m, and the estimate replaced by the rigid fit of the pairs
+  // (objects::RefineUnderTransform) when at least refine_min_pairs pairs hold it and the fit
+  // moves the teammate's keyframes by an RMS of at most refine_max_move_m. Loops tie the maps
+  // where the keyframes they name are; the objects gather every keyframe that saw them.
+  // 0: off.
+  int refine_min_pairs = 0;
+  double refine_gate_m = 1.5;
+  double refine_max_length_m = 8.0;
+  double refine_max_move_m = 3.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
@@ -623,6 +634,8 @@ class OptimizerStage {
   // Turns a placed teammate toward the headings' rotation by HeadingTurnFraction.
   void TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                           std::vector<msgs::Pose2>* poses) const;
+  // Moves a placed teammate onto the own object map (OptimizerStageOptions::refine_*).
+  void RefineOnObjects(int robot, std::vector<msgs::Pose2>* poses) const;
   // The fraction TurnTowardHeadings turns by (placement_heading_weight, or the loops' spans).
   double HeadingTurnFraction(int robot, const team::TeamProblem& problem) const;
   // u of placement_heading_variance_ratio: the fractions of the own and the teammate's

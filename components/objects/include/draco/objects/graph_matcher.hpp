@@ -350,6 +350,23 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
                                                   const msgs::ObjectMap& b, const Pose2& T_a_b,
                                                   double margin_m);
 
+// A placement refined on the two object maps: each small object of b (length at most
+// max_length_m: piles, blocks, boulders, landmarks; a wall's mean point moves with what each
+// robot saw of it) placed by T_a_b is paired with the nearest small object of a within
+// gate_m, and T_a_b becomes the rigid fit of the pairs; repeated `iterations` times. The
+// objects aggregate every keyframe that saw them, so the fit weighs the whole overlap of the
+// two maps, where loops tie the maps at the keyframes they name. nullopt when fewer than
+// min_pairs pairs remain. *pairs (optional): the pairs of the last fit.
+struct RefineOptions {
+  double gate_m = 1.5;
+  double max_length_m = 8.0;
+  int min_pairs = 5;
+  int iterations = 5;
+};
+std::optional<Pose2> RefineUnderTransform(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
+                                          const Pose2& T_a_b, const RefineOptions& options = {},
+                                          int* pairs = nullptr);
+
 // Time consistency across exchanges: the answers of one robot pair over time. A transform is
 // passed on only once it has won at least min_votes exchanges (answers within same_m /
 // same_rad of each other are one track; the track follows the newest answer as the maps
