@@ -480,6 +480,21 @@ TEST(Matcher, RefineUnderTransformFitsSmallObjectsAndLeavesWallsOut) {
   EXPECT_EQ(pairs, 12);  // the walls are left out
   EXPECT_TRUE(Close(*refined, truth, 0.15, 0.3));
   EXPECT_FALSE(Close(start, truth, 0.5, 1.0));
+  // Without turning: the start's rotation stays, its translation moves to the pairs' mean.
+  RefineOptions shift_only;
+  shift_only.rotate = false;
+  const auto shifted = RefineUnderTransform(a, b, start, shift_only);
+  ASSERT_TRUE(shifted.has_value());
+  EXPECT_DOUBLE_EQ(shifted->yaw_rad, start.yaw_rad);
+  double rms_before = 0.0, rms_after = 0.0;
+  for (const auto& ob : b.objects) {
+    if (ob.length_m > 8.0) continue;
+    const auto t = Transform(truth, ob.center), p0 = Transform(start, ob.center),
+               p1 = Transform(*shifted, ob.center);
+    rms_before += std::pow(t.x_m - p0.x_m, 2) + std::pow(t.y_m - p0.y_m, 2);
+    rms_after += std::pow(t.x_m - p1.x_m, 2) + std::pow(t.y_m - p1.y_m, 2);
+  }
+  EXPECT_LT(rms_after, 0.5 * rms_before);
   // With the walls in, their 6 m disagreement drags the fit away from the truth.
   RefineOptions with_walls;
   with_walls.max_length_m = 100.0;

@@ -226,6 +226,7 @@ void OptimizerStage::RefineOnObjects(int robot, std::vector<Pose2>* poses) const
   ro.gate_m = options_.refine_gate_m;
   ro.max_length_m = options_.refine_max_length_m;
   ro.min_pairs = options_.refine_min_pairs;
+  ro.rotate = options_.refine_rotation;
   const auto refined = objects::RefineUnderTransform(own_objects_, map->second.map, *T, ro);
   if (!refined) return;
   // The move: refined * inv(T), applied to every pose the estimate holds for the teammate.

@@ -807,6 +807,8 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "RMS of at most this",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("refine_rotation", &o_.refine_rotation,
+               {.doc = "the refinement may turn the placement (false: shift it only)"});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

@@ -111,9 +111,20 @@ std::optional<Pose2> RefineUnderTransform(const msgs::ObjectMap& a, const msgs::
     }
     n = static_cast<int>(source.size());
     if (n < std::max(2, options.min_pairs)) return std::nullopt;
-    const auto fit = msgs::FitRigid2d(source, target);
-    if (!fit) return std::nullopt;
-    T = *fit;
+    if (options.rotate) {
+      const auto fit = msgs::FitRigid2d(source, target);
+      if (!fit) return std::nullopt;
+      T = *fit;
+      continue;
+    }
+    double dx = 0.0, dy = 0.0;
+    for (std::size_t i = 0; i < source.size(); ++i) {
+      const auto p = Apply(T, source[i]);
+      dx += target[i].x_m - p.x_m;
+      dy += target[i].y_m - p.y_m;
+    }
+    T.x_m += dx / n;
+    T.y_m += dy / n;
   }
   if (pairs != nullptr) *pairs = n;
   return T;

@@ -562,11 +562,12 @@ struct OptimizerStageOptions {
   // (objects::RefineUnderTransform) when at least refine_min_pairs pairs hold it and the fit
   // moves the teammate's keyframes by an RMS of at most refine_max_move_m. Loops tie the maps
   // where the keyframes they name are; the objects gather every keyframe that saw them.
-  // 0: off.
-  int refine_min_pairs = 0;
+  // 0: off. 8 from tuning seeds 21-45 (docs/safe-merges.md, safeguard 10).
+  int refine_min_pairs = 8;
   double refine_gate_m = 1.5;
   double refine_max_length_m = 8.0;
   double refine_max_move_m = 3.0;
+  bool refine_rotation = true;  // false: the refinement shifts the placement, never turns it
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).

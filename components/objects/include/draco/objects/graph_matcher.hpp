@@ -356,12 +356,14 @@ std::vector<msgs::ObjectPair> PairsUnderTransform(const msgs::ObjectMap& a,
 // gate_m, and T_a_b becomes the rigid fit of the pairs; repeated `iterations` times. The
 // objects aggregate every keyframe that saw them, so the fit weighs the whole overlap of the
 // two maps, where loops tie the maps at the keyframes they name. nullopt when fewer than
-// min_pairs pairs remain. *pairs (optional): the pairs of the last fit.
+// min_pairs pairs remain. *pairs (optional): the pairs of the last fit. rotate false: the
+// fit moves the map without turning it (the pairs' mean offset).
 struct RefineOptions {
   double gate_m = 1.5;
   double max_length_m = 8.0;
   int min_pairs = 5;
   int iterations = 5;
+  bool rotate = true;
 };
 std::optional<Pose2> RefineUnderTransform(const msgs::ObjectMap& a, const msgs::ObjectMap& b,
                                           const Pose2& T_a_b, const RefineOptions& options = {},
