@@ -562,8 +562,9 @@ struct OptimizerStageOptions {
   // (objects::RefineUnderTransform) when at least refine_min_pairs pairs hold it and the fit
   // moves the teammate's keyframes by an RMS of at most refine_max_move_m. Loops tie the maps
   // where the keyframes they name are; the objects gather every keyframe that saw them.
-  // 0: off. 8 from tuning seeds 21-45 (docs/safe-merges.md, safeguard 10).
-  int refine_min_pairs = 8;
+  // 0: off (docs/safe-merges.md, "The placement on the object maps": fewer wrong at the end,
+  // larger excursions on the way, on worlds nobody tuned on).
+  int refine_min_pairs = 0;
   double refine_gate_m = 1.5;
   double refine_max_length_m = 8.0;
   double refine_max_move_m = 3.0;
