@@ -169,6 +169,26 @@ bool OptimizerStage::Contested(int robot,
   return false;
 }
 
+namespace {
+
+// The rigid fit of a teammate's known keyframe poses (its map frame) to `poses`, the estimate's;
+// *moved (optional): those poses of `poses`.
+std::optional<Pose2> RigidPlacement(const TeammatePoses::Held& held,
+                                    const std::vector<Pose2>& poses,
+                                    std::vector<Pose2>* moved = nullptr) {
+  std::vector<Pose2> local, placed;
+  for (std::size_t k = 0; k < poses.size() && k < held.keyframes.size(); ++k) {
+    if (!held.known[k]) continue;
+    local.push_back(held.keyframes[k].T_map_kf);
+    placed.push_back(poses[k]);
+  }
+  const auto T = AlignSe2(local, placed);
+  if (moved != nullptr) *moved = std::move(placed);
+  return T;
+}
+
+}  // namespace
+
 void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& problem,
                                         std::vector<Pose2>* poses) const {
   const auto map = teammate_objects_.find(robot);
@@ -178,13 +198,7 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
   if (!prior) return;
   const double fraction = HeadingTurnFraction(robot, problem);
   if (!(fraction > 0.0)) return;
-  std::vector<Pose2> local, moved;
-  for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {
-    if (!held->known[k]) continue;
-    local.push_back(held->keyframes[k].T_map_kf);
-    moved.push_back((*poses)[k]);
-  }
-  const auto T = AlignSe2(local, moved);
+  const auto T = RigidPlacement(*held, *poses);
   if (!T) return;
   // The centroid of the teammate's keyframes that loops tie to own ones, where it is placed.
   double cx = 0.0, cy = 0.0;
@@ -214,13 +228,8 @@ void OptimizerStage::RefineOnObjects(int robot, std::vector<Pose2>* poses) const
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
   if (map == teammate_objects_.end() || held == nullptr) return;
-  std::vector<Pose2> local, moved;
-  for (std::size_t k = 0; k < poses->size() && k < held->keyframes.size(); ++k) {
-    if (!held->known[k]) continue;
-    local.push_back(held->keyframes[k].T_map_kf);
-    moved.push_back((*poses)[k]);
-  }
-  const auto T = AlignSe2(local, moved);
+  std::vector<Pose2> moved;
+  const auto T = RigidPlacement(*held, *poses, &moved);
   if (!T) return;
   objects::RefineOptions ro;
   ro.gate_m = options_.refine_gate_m;
