@@ -968,10 +968,11 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   const Pose2 T_true = reg::Compose(Pose2{0.5, -0.4, 0.02}, TeammateOne(nullptr).T_0_1);
   const msgs::Point2 piles[] = {{6.0, 3.0},   {10.0, -3.0}, {16.0, 2.0},
                                 {20.0, -2.0}, {2.0, 12.0},  {-4.0, 8.0}};
-  const auto run = [&](int min_pairs, double max_move_m) {
+  const auto run = [&](int min_pairs, double max_move_m, double min_lever_m = 0.0) {
     OptimizerStageOptions o = OtherRulesOptions();
     o.refine_min_pairs = min_pairs;
     o.refine_max_move_m = max_move_m;
+    o.refine_min_lever_m = min_lever_m;
     o.max_map_miss_fraction = 1.0;  // no own sonar returns here: the map check off
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
@@ -1003,6 +1004,10 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   EXPECT_TRUE(near(run(5, 3.0), T_true));  // refined onto the objects
   EXPECT_TRUE(near(run(7, 3.0), T_0_1));   // six pairs are too few
   EXPECT_TRUE(near(run(5, 0.3), T_0_1));   // the move is more than 0.3 m
+  // The loops' rotation lever: L sqrt(u) = 4.558 m without headings (as in
+  // WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops).
+  EXPECT_TRUE(near(run(5, 3.0, 4.5), T_true));
+  EXPECT_TRUE(near(run(5, 3.0, 4.6), T_0_1));
 }
 
 TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {
