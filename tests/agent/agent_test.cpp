@@ -968,11 +968,13 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   const Pose2 T_true = reg::Compose(Pose2{0.5, -0.4, 0.02}, TeammateOne(nullptr).T_0_1);
   const msgs::Point2 piles[] = {{6.0, 3.0},   {10.0, -3.0}, {16.0, 2.0},
                                 {20.0, -2.0}, {2.0, 12.0},  {-4.0, 8.0}};
-  const auto run = [&](int min_pairs, double max_move_m, double min_lever_m = 0.0) {
+  const auto run = [&](int min_pairs, double max_move_m, double min_lever_m = 0.0,
+                       double blend_pairs = 0.0) {
     OptimizerStageOptions o = OtherRulesOptions();
     o.refine_min_pairs = min_pairs;
     o.refine_max_move_m = max_move_m;
     o.refine_min_lever_m = min_lever_m;
+    o.refine_blend_pairs = blend_pairs;
     o.max_map_miss_fraction = 1.0;  // no own sonar returns here: the map check off
     OptimizerStage stage(o);
     const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
@@ -1008,6 +1010,15 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   // WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops).
   EXPECT_TRUE(near(run(5, 3.0, 4.5), T_true));
   EXPECT_TRUE(near(run(5, 3.0, 4.6), T_0_1));
+  // Blended: six pairs against refine_blend_pairs 6 move half the way, the turn included.
+  const Pose2 half = run(5, 3.0, 0.0, 6.0);
+  EXPECT_NEAR(half.yaw_rad, T_0_1.yaw_rad + 0.01, 1e-4);
+  // The teammate's keyframe centroid (0, 7) lands half way between the two placements.
+  const Pose2 centroid{0.0, 7.0, 0.0};
+  const Pose2 p = reg::Compose(half, centroid), p0 = reg::Compose(T_0_1, centroid),
+              p1 = reg::Compose(T_true, centroid);
+  EXPECT_NEAR(p.x_m, 0.5 * (p0.x_m + p1.x_m), 1e-3);
+  EXPECT_NEAR(p.y_m, 0.5 * (p0.y_m + p1.y_m), 1e-3);
 }
 
 TEST(OptimizerStage, PlacesATeammateOnlyOnIndependentLoops) {

@@ -241,10 +241,29 @@ void OptimizerStage::RefineOnObjects(int robot, std::vector<Pose2>* poses) const
   ro.max_length_m = options_.refine_max_length_m;
   ro.min_pairs = options_.refine_min_pairs;
   ro.rotate = options_.refine_rotation;
-  const auto refined = objects::RefineUnderTransform(own_objects_, map->second.map, *T, ro);
+  int pairs = 0;
+  const auto refined = objects::RefineUnderTransform(own_objects_, map->second.map, *T, ro, &pairs);
   if (!refined) return;
-  // The move: refined * inv(T), applied to every pose the estimate holds for the teammate.
-  const Pose2 delta = reg::Compose(*refined, reg::Inverse(*T));
+  // The move: refined * inv(T), applied to every pose the estimate holds for the teammate;
+  // with refine_blend_pairs, the fraction pairs / (pairs + refine_blend_pairs) of it (turned
+  // and shifted about the teammate's keyframe centroid).
+  Pose2 delta = reg::Compose(*refined, reg::Inverse(*T));
+  if (options_.refine_blend_pairs > 0.0) {
+    const double a = pairs / (pairs + options_.refine_blend_pairs);
+    double cx = 0.0, cy = 0.0;
+    for (const auto& p : moved) {
+      cx += p.x_m;
+      cy += p.y_m;
+    }
+    cx /= static_cast<double>(moved.size());
+    cy /= static_cast<double>(moved.size());
+    const auto to = reg::Apply(delta, msgs::Point2{cx, cy});
+    const double yaw = a * std::remainder(delta.yaw_rad, 2.0 * M_PI);
+    const double c = std::cos(yaw), sn = std::sin(yaw);
+    // Turn about (cx, cy) by yaw, then shift by a (to - c).
+    delta = {cx - (c * cx - sn * cy) + a * (to.x_m - cx),
+             cy - (sn * cx + c * cy) + a * (to.y_m - cy), yaw};
+  }
   double sum_m2 = 0.0;
   for (const auto& p : moved) {
     const auto q = reg::Apply(delta, msgs::Point2{p.x_m, p.y_m});

@@ -814,6 +814,10 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "at least this (0: every placed teammate)",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("refine_blend_pairs", &o_.refine_blend_pairs,
+               {.doc = "move a refined teammate the fraction pairs / (pairs + this) of the way "
+                       "to the objects' fit (0: all the way)",
+                .min = 0.0});
     spec.Param("competitor_ratio", &o_.competitor_ratio,
                {.doc = "no placement while candidates the filter rejected agree on another "
                        "transform with this fraction of the accepted loops' distinct keyframes "

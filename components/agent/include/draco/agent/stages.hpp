@@ -573,6 +573,9 @@ struct OptimizerStageOptions {
   // loops that span the two missions fix the whole-mission placement better than the objects'
   // mean points do (0: every placed teammate).
   double refine_min_lever_m = 0.0;
+  // > 0: move only the fraction pairs / (pairs + this) of the way to the objects' fit (few
+  // pairs, a small step; 0: all the way).
+  double refine_blend_pairs = 0.0;
 };
 
 // The map-level check of one teammate's placement (OptimizerStageOptions::max_map_miss_fraction).
