@@ -968,12 +968,10 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   const Pose2 T_true = reg::Compose(Pose2{0.5, -0.4, 0.02}, TeammateOne(nullptr).T_0_1);
   const msgs::Point2 piles[] = {{6.0, 3.0},   {10.0, -3.0}, {16.0, 2.0},
                                 {20.0, -2.0}, {2.0, 12.0},  {-4.0, 8.0}};
-  const auto run = [&](int min_pairs, double max_move_m, double min_lever_m = 0.0,
-                       double blend_pairs = 0.0) {
+  const auto run = [&](int min_pairs, double max_move_m, double blend_pairs = 0.0) {
     OptimizerStageOptions o = OtherRulesOptions();
     o.refine_min_pairs = min_pairs;
     o.refine_max_move_m = max_move_m;
-    o.refine_min_lever_m = min_lever_m;
     o.refine_blend_pairs = blend_pairs;
     o.max_map_miss_fraction = 1.0;  // no own sonar returns here: the map check off
     OptimizerStage stage(o);
@@ -1006,12 +1004,8 @@ TEST(OptimizerStage, RefinesAPlacedTeammateOnTheObjectMaps) {
   EXPECT_TRUE(near(run(5, 3.0), T_true));  // refined onto the objects
   EXPECT_TRUE(near(run(7, 3.0), T_0_1));   // six pairs are too few
   EXPECT_TRUE(near(run(5, 0.3), T_0_1));   // the move is more than 0.3 m
-  // The loops' rotation lever: L sqrt(u) = 4.558 m without headings (as in
-  // WaitsWhileTheTeammatesMapReachesFarFromItsLocalLoops).
-  EXPECT_TRUE(near(run(5, 3.0, 4.5), T_true));
-  EXPECT_TRUE(near(run(5, 3.0, 4.6), T_0_1));
   // Blended: six pairs against refine_blend_pairs 6 move half the way, the turn included.
-  const Pose2 half = run(5, 3.0, 0.0, 6.0);
+  const Pose2 half = run(5, 3.0, 6.0);
   EXPECT_NEAR(half.yaw_rad, T_0_1.yaw_rad + 0.01, 1e-4);
   // The teammate's keyframe centroid (0, 7) lands half way between the two placements.
   const Pose2 centroid{0.0, 7.0, 0.0};

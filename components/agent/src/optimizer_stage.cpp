@@ -225,11 +225,6 @@ void OptimizerStage::TurnTowardHeadings(int robot, const team::TeamProblem& prob
 
 void OptimizerStage::RefineOnObjects(int robot, std::vector<Pose2>* poses) const {
   if (options_.refine_min_pairs <= 0) return;
-  if (options_.refine_min_lever_m > 0.0) {
-    const auto lever = estimate_.rotation_lever_m.find(robot);  // this step's
-    if (lever == estimate_.rotation_lever_m.end() || lever->second < options_.refine_min_lever_m)
-      return;
-  }
   const auto map = teammate_objects_.find(robot);
   const auto* held = poses_.Find(robot);
   if (map == teammate_objects_.end() || held == nullptr) return;

@@ -809,11 +809,6 @@ class TwoStepOptimizerComponent final : public graph::Component {
                 .min = 0.0});
     spec.Param("refine_rotation", &o_.refine_rotation,
                {.doc = "the refinement may turn the placement (false: shift it only)"});
-    spec.Param("refine_min_lever_m", &o_.refine_min_lever_m,
-               {.doc = "refine only a teammate whose rotation lever (max_rotation_lever_m's) is "
-                       "at least this (0: every placed teammate)",
-                .unit = "m",
-                .min = 0.0});
     spec.Param("refine_blend_pairs", &o_.refine_blend_pairs,
                {.doc = "move a refined teammate the fraction pairs / (pairs + this) of the way "
                        "to the objects' fit (0: all the way)",

@@ -569,10 +569,6 @@ struct OptimizerStageOptions {
   double refine_max_length_m = 8.0;
   double refine_max_move_m = 3.0;
   bool refine_rotation = true;  // false: the refinement shifts the placement, never turns it
-  // Refine only a teammate whose rotation lever (max_rotation_lever_m's) is at least this:
-  // loops that span the two missions fix the whole-mission placement better than the objects'
-  // mean points do (0: every placed teammate).
-  double refine_min_lever_m = 0.0;
   // > 0: move only the fraction pairs / (pairs + this) of the way to the objects' fit (few
   // pairs, a small step; 0: all the way).
   double refine_blend_pairs = 0.0;
