@@ -263,16 +263,57 @@ struct PoseGraph2d::Impl {
     gauge_node_in_problem = gauge;
   }
 
+  // The radius blocks of p that sit on a bound and are free in p.
+  std::vector<double*> RadiiAtBounds(const ceres::Problem& p) {
+    std::vector<double*> out;
+    for (PointNode& q : points) {
+      if (!q.radius || !p.HasParameterBlock(q.rho.data()) ||
+          p.IsParameterBlockConstant(q.rho.data())) {
+        continue;
+      }
+      if (q.rho[0] <= 0.0 || q.rho[0] >= q.radius->max_m) out.push_back(q.rho.data());
+    }
+    return out;
+  }
+
+  // Solves p. A radius on its bound is held there (an active set): Ceres projects a step onto
+  // the bounds after computing it without them, so a radius the evidence pushes past its
+  // bound takes the rest of the step with it, and the solve is rejected step after step (on
+  // the marina repeated, 21 iterations a full solve against 5). After the solve, a held radius
+  // whose gradient points into its range is freed and the problem solved again from there.
+  static constexpr int kMaxActiveSetPasses = 4;
   SolveSummary Run(ceres::Problem& p, const SolverOptions& o) {
-    ceres::Solver::Summary s;
-    ceres::Solve(internal::ToCeres(o), &p, &s);
+    const ceres::Solver::Options options = internal::ToCeres(o);
+    std::vector<double*> held = RadiiAtBounds(p);
     SolveSummary out;
-    out.usable = s.IsSolutionUsable();
-    out.converged = s.termination_type == ceres::CONVERGENCE;
-    out.iterations = static_cast<int>(s.iterations.size()) - 1;
-    out.initial_cost = s.initial_cost;
-    out.final_cost = s.final_cost;
-    out.report = o.full_report ? s.FullReport() : s.BriefReport();
+    out.initial_cost = -1.0;
+    for (int pass = 0; pass < kMaxActiveSetPasses; ++pass) {
+      for (double* r : held) p.SetParameterBlockConstant(r);
+      ceres::Solver::Summary s;
+      ceres::Solve(options, &p, &s);
+      for (double* r : held) p.SetParameterBlockVariable(r);
+      out.usable = s.IsSolutionUsable();
+      out.converged = s.termination_type == ceres::CONVERGENCE;
+      out.iterations += static_cast<int>(s.iterations.size()) - 1;
+      if (out.initial_cost < 0.0) out.initial_cost = s.initial_cost;
+      out.final_cost = s.final_cost;
+      out.report = o.full_report ? s.FullReport() : s.BriefReport();
+      if (held.empty() || !out.usable) break;
+      // Gradient of the whole cost with respect to the held radii.
+      ceres::Problem::EvaluateOptions eval;
+      eval.parameter_blocks = held;
+      std::vector<double> gradient;
+      double cost = 0.0;
+      if (!p.Evaluate(eval, &cost, nullptr, &gradient, nullptr)) break;
+      std::vector<double*> still;
+      for (std::size_t i = 0; i < held.size(); ++i) {
+        const bool at_lower = *held[i] <= 0.0;
+        const bool inward = at_lower ? gradient[i] < 0.0 : gradient[i] > 0.0;
+        if (!inward) still.push_back(held[i]);
+      }
+      if (still.size() == held.size()) break;
+      held = std::move(still);
+    }
     return out;
   }
 };

@@ -822,6 +822,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   result.full_solve = s.full;
   result.full_solve_avoided = s.full_avoided;
   result.solve_time_s = s.time_s;
+  result.solve_iterations = s.iterations;
   return result;
 }
 

@@ -235,6 +235,7 @@ class LocalSlamComponent final : public graph::Component {
         loops_icp_ambiguous_ += r.loops_icp_ambiguous;
         (r.full_solve ? full_solves_ : window_solves_) += 1;
         (r.full_solve ? full_solve_s_ : window_solve_s_) += r.solve_time_s;
+        if (r.full_solve) full_solve_iterations_ += r.solve_iterations;
         full_solves_avoided_ += r.full_solve_avoided ? 1 : 0;
       } catch (const std::exception& e) {
         pending_keyframes_.pop_front();
@@ -252,10 +253,10 @@ class LocalSlamComponent final : public graph::Component {
     if (full_solves_ + window_solves_ > 0) {
       char line[256];
       std::snprintf(line, sizeof(line),
-                    "local SLAM: %d full solves (%.2f s), %d window solves (%.2f s; %d of them "
-                    "instead of a full solve)",
-                    full_solves_, full_solve_s_, window_solves_, window_solve_s_,
-                    full_solves_avoided_);
+                    "local SLAM: %d full solves (%.2f s, %d iterations), %d window solves "
+                    "(%.2f s; %d of them instead of a full solve)",
+                    full_solves_, full_solve_s_, full_solve_iterations_, window_solves_,
+                    window_solve_s_, full_solves_avoided_);
       log::Info(prefix_ + line);
     }
     const auto count = [&](int n, const std::string& what) {
@@ -365,6 +366,7 @@ class LocalSlamComponent final : public graph::Component {
   int loops_icp_ambiguous_ = 0;
   int full_solves_avoided_ = 0;
   int full_solves_ = 0, window_solves_ = 0;  // pose-graph solves, and their time
+  int full_solve_iterations_ = 0;
   double full_solve_s_ = 0.0, window_solve_s_ = 0.0;
   std::deque<graph::Stamped<msgs::Keyframe>> pending_keyframes_;
   std::map<int, graph::Stamped<msgs::SequentialFactor>> pending_factors_;

@@ -244,6 +244,7 @@ struct StepResult {
   bool full_solve = false;
   bool full_solve_avoided = false;  // triggered, but the window's answer agreed (see options)
   double solve_time_s = 0.0;
+  int solve_iterations = 0;  // the solver's iterations in this step's solve
 };
 
 // Covariance given to a registered loop: the ICP covariance floored at the loop sigmas, then
