@@ -4,9 +4,11 @@
 // directly (no link) step by step.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <memory>
 #include <numbers>
@@ -1471,14 +1473,17 @@ struct GridExchange {
     return out;
   }
   // Runs one exchange step; returns the configured window's registration status.
+  // before: called on the stage before any input (the filter's candidates, OnLoops).
   std::pair<reg::RegistrationStatus, std::vector<msgs::InterRobotLoop>> Run(
-      double own_heading, double mate_heading, bool prune_turns = true) {
+      double own_heading, double mate_heading, bool prune_turns = true,
+      const std::function<void(ScanExchangeStage&)>& before = {}) {
     ScanExchangeStageOptions o;
     o.robot_id = kA;
     o.log_windows = {};
     o.max_heading_gap_rad = kGap;
     o.headings_prune_turns = prune_turns;
     ScanExchangeStage stage(o);
+    if (before) before(stage);
     msgs::KeyframeTrajectory traj;
     msgs::ObjectMap own;
     own.map_heading_rad = own_heading;
@@ -1560,6 +1565,47 @@ TEST(ScanExchangeStage, HeadingsSettleATurnAmbiguityAndRefuseATurnedRegistration
   const auto quarter = grid.Run(0.2, 0.2 + grid.T_A_B.yaw_rad + std::numbers::pi / 2);
   EXPECT_EQ(quarter.first, reg::RegistrationStatus::kAmbiguous);
   EXPECT_TRUE(quarter.second.empty());
+}
+
+// The filter's candidates (every one each step, numbered as taken) are never registered
+// again: a step that would make one loop per own keyframe 0-6 with B's keyframe 0 leaves out
+// those the filter holds, and after B is forgotten, the list sent again is taken again.
+TEST(ScanExchangeStage, LeavesOutThePairsTheFilterHolds) {
+  GridExchange grid;
+  const double heading = 0.2 + grid.T_A_B.yaw_rad + 0.05;
+  const auto loop = [](std::uint64_t id, int own_kf) {
+    msgs::InterRobotLoop l;
+    l.id = id;
+    l.own_robot = kA;
+    l.own_keyframe = own_kf;
+    l.teammate_robot = kB;
+    l.teammate_keyframe = 0;
+    return l;
+  };
+  const auto own_keyframes = [](const std::vector<msgs::InterRobotLoop>& loops) {
+    std::vector<int> out;
+    for (const auto& l : loops) out.push_back(l.own_keyframe);
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  const auto all = grid.Run(0.2, heading);
+  EXPECT_EQ(own_keyframes(all.second), (std::vector<int>{0, 1, 2, 3, 4, 5, 6}));
+  const auto held = grid.Run(0.2, heading, true, [&](ScanExchangeStage& stage) {
+    stage.OnLoops({loop(0, 2)});
+    stage.OnLoops({loop(0, 2), loop(1, 5)});
+  });
+  EXPECT_EQ(own_keyframes(held.second), (std::vector<int>{0, 1, 3, 4, 6}));
+  const auto forgotten = grid.Run(0.2, heading, true, [&](ScanExchangeStage& stage) {
+    stage.OnLoops({loop(0, 2), loop(1, 5)});
+    stage.Forget(kB);
+    stage.OnLoops({loop(0, 2), loop(1, 5)});
+  });
+  EXPECT_EQ(own_keyframes(forgotten.second), (std::vector<int>{0, 1, 3, 4, 6}));
+  const auto gone = grid.Run(0.2, heading, true, [&](ScanExchangeStage& stage) {
+    stage.OnLoops({loop(0, 2), loop(1, 5)});
+    stage.Forget(kB);
+  });
+  EXPECT_EQ(own_keyframes(gone.second), (std::vector<int>{0, 1, 2, 3, 4, 5, 6}));
 }
 
 // serve_submap_keyframes: A's keyframes 0-4 (poses (2k, 0, 0.1k)) hold 10 points each, fewer

@@ -2,6 +2,7 @@
 // missing objects and clutter, no match on unrelated maps, repeated structure.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -534,6 +535,54 @@ TEST(Matcher, CoverageAndMisses) {
       Compose(Inverse(msgs::Pose2{-5.0, 3.0, 0.3}), Compose({-10.0, 0.0, 0.0}, T_w_b));
   EXPECT_EQ(CountMisses(s.b, s.a, T_shifted, s.ca, 3.0), 0);
   EXPECT_EQ(CountMisses(s.a, s.b, Inverse(T_shifted), s.cb, 3.0), 1);
+}
+
+// Every cell whose centre lies within range and half-aperture of some pose is observed, and
+// no other: the constructor visits only the cells near each sector, the test here all.
+TEST(Matcher, CoverageMarksExactlyTheCellsInsideTheSectors) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> xy(-40.0, 40.0), yaw(-M_PI, M_PI);
+  for (const double half_rad : {0.3, 1.1345, 1.9, M_PI}) {
+    for (const double cell_m : {1.0, 0.7}) {
+      CoverageOptions o;
+      o.half_aperture_rad = half_rad;
+      o.cell_m = cell_m;
+      o.range_m = 12.5;
+      std::vector<msgs::Pose2> poses;
+      for (int i = 0; i < 12; ++i) poses.push_back({xy(rng), xy(rng), yaw(rng)});
+      const Coverage c(poses, o);
+      double x0 = poses[0].x_m, y0 = poses[0].y_m, x1 = x0, y1 = y0;
+      for (const auto& p : poses) {
+        x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
+        y0 = std::min(y0, p.y_m), y1 = std::max(y1, p.y_m);
+      }
+      x0 -= o.range_m, y0 -= o.range_m;
+      const int nx = static_cast<int>(std::ceil((x1 - x0 + o.range_m) / cell_m)) + 1;
+      const int ny = static_cast<int>(std::ceil((y1 - y0 + o.range_m) / cell_m)) + 1;
+      int observed = 0, mismatched = 0;
+      for (int iy = 0; iy < ny; ++iy) {
+        for (int ix = 0; ix < nx; ++ix) {
+          bool expected = false;
+          for (const auto& p : poses) {
+            const double dx = x0 + (ix + 0.5) * cell_m - p.x_m;
+            const double dy = y0 + (iy + 0.5) * cell_m - p.y_m;
+            const double d2 = dx * dx + dy * dy;
+            if (d2 > o.range_m * o.range_m) continue;
+            if (std::cos(p.yaw_rad) * dx + std::sin(p.yaw_rad) * dy <
+                std::sqrt(d2) * std::cos(half_rad))
+              continue;
+            expected = true;
+            break;
+          }
+          const bool got = c.Observed({x0 + (ix + 0.5) * cell_m, y0 + (iy + 0.5) * cell_m});
+          observed += got ? 1 : 0;
+          mismatched += got != expected ? 1 : 0;
+        }
+      }
+      EXPECT_EQ(mismatched, 0) << "half " << half_rad << " cell " << cell_m;
+      EXPECT_GT(observed, 100);
+    }
+  }
 }
 
 TEST(Matcher, CompareObjectMapsCountsWhatEachRobotShouldHaveSeen) {

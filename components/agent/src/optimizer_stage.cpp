@@ -451,10 +451,12 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       graph_changed_[robot] = true;
     }
   }
-  std::set<std::uint64_t> accepted;
+  std::vector<std::uint64_t> accepted;  // ids, ascending
   for (const auto& l : candidates) {
-    if (l.flags & msgs::kLoopAccepted) accepted.insert(l.id);
+    if (l.flags & msgs::kLoopAccepted) accepted.push_back(l.id);
   }
+  if (!std::is_sorted(accepted.begin(), accepted.end()))
+    std::sort(accepted.begin(), accepted.end());
   if (accepted != accepted_ids_) accepted_changed_ = true;
   accepted_ids_ = std::move(accepted);
   // Teammates with enough independent accepted loops (options: min_teammate_loops).
@@ -462,15 +464,21 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   {
     struct Evidence {
       int loops = 0;
-      std::set<int> own_kfs, mate_kfs;
+      std::vector<int> own_kfs, mate_kfs;  // distinct after the loop below
     };
     std::map<int, Evidence> evidence;
     for (const auto& l : candidates) {
       if (!(l.flags & msgs::kLoopAccepted) || l.teammate_robot == own_id) continue;
       auto& e = evidence[l.teammate_robot];
       ++e.loops;
-      e.own_kfs.insert(l.own_keyframe);
-      e.mate_kfs.insert(l.teammate_keyframe);
+      e.own_kfs.push_back(l.own_keyframe);
+      e.mate_kfs.push_back(l.teammate_keyframe);
+    }
+    for (auto& [robot, e] : evidence) {
+      for (auto* v : {&e.own_kfs, &e.mate_kfs}) {
+        std::sort(v->begin(), v->end());
+        v->erase(std::unique(v->begin(), v->end()), v->end());
+      }
     }
     estimate_.map_checks.clear();
     estimate_.rotation_lever_m.clear();
@@ -557,47 +565,15 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   if (own_poses.empty()) return;
 
   team::TeamProblem problem;
-  team::RobotGraph own_graph;
-  const pg::Matrix3 own_chain_info =
-      Information(options_.own_chain_sigma_xy_m, options_.own_chain_sigma_yaw_rad);
-  for (std::size_t k = 0; k < own_poses.size(); ++k) {
-    own_graph.poses.push_back(ToPg(own_poses[k]));
-    if (k > 0) {
-      team::ChainFactor f;
-      f.from = static_cast<int>(k - 1);
-      f.to = static_cast<int>(k);
-      f.T_from_to = ToPg(reg::Between(own_poses[k - 1], own_poses[k]));
-      f.information = own_chain_info;
-      own_graph.factors.push_back(f);
-    }
-  }
-  problem.robots[own_id] = std::move(own_graph);
-  const pg::Matrix3 chain_info =
-      Information(options_.two_step.chain_sigma_xy_m, options_.two_step.chain_sigma_yaw_rad);
+  // The teammates the problem holds: those with keyframes and a map-to-map guess.
+  std::set<int> in_problem;
   for (const auto& [robot, held] : poses_.all()) {
-    const auto g = guess(robot);
-    if (!g || held.keyframes.empty()) continue;
-    team::RobotGraph rg;
-    for (std::size_t k = 0; k < held.keyframes.size(); ++k) {
-      rg.poses.push_back(ToPg(held.keyframes[k].T_map_kf));
-      if (k > 0) {
-        team::ChainFactor f;
-        f.from = static_cast<int>(k - 1);
-        f.to = static_cast<int>(k);
-        f.T_from_to =
-            ToPg(reg::Between(held.keyframes[k - 1].T_map_kf, held.keyframes[k].T_map_kf));
-        f.information = chain_info;
-        rg.factors.push_back(f);
-      }
-    }
-    problem.robots[robot] = std::move(rg);
-    problem.maps[{own_id, robot}] = ToPg(*g);
+    if (!held.keyframes.empty() && guess(robot)) in_problem.insert(robot);
   }
   std::map<std::pair<int, int>, int> loops_at;  // {teammate, keyframe} -> loops in the PGO
   for (const auto& l : candidates) {
     if (!(l.flags & msgs::kLoopAccepted) || !loop_verified.count(l.teammate_robot)) continue;
-    const auto r = problem.robots.find(l.teammate_robot);
-    if (r == problem.robots.end()) continue;
+    if (!in_problem.count(l.teammate_robot)) continue;
     if (l.own_keyframe < 0 || l.own_keyframe >= static_cast<int>(own_poses.size()) ||
         !own_real[static_cast<std::size_t>(l.own_keyframe)] ||
         !poses_.Known(l.teammate_robot, l.teammate_keyframe)) {
@@ -620,6 +596,43 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   if (!pgo) {
     if (have_loops && optimized_once_) return;  // the last PGO stands until the next one
     if (!graphs_changed && !estimate_.trajectories.empty()) return;  // nothing new to place
+  }
+  // The robots' graphs, only for a step that solves or places (the others return above).
+  team::RobotGraph own_graph;
+  const pg::Matrix3 own_chain_info =
+      Information(options_.own_chain_sigma_xy_m, options_.own_chain_sigma_yaw_rad);
+  for (std::size_t k = 0; k < own_poses.size(); ++k) {
+    own_graph.poses.push_back(ToPg(own_poses[k]));
+    if (k > 0) {
+      team::ChainFactor f;
+      f.from = static_cast<int>(k - 1);
+      f.to = static_cast<int>(k);
+      f.T_from_to = ToPg(reg::Between(own_poses[k - 1], own_poses[k]));
+      f.information = own_chain_info;
+      own_graph.factors.push_back(f);
+    }
+  }
+  problem.robots[own_id] = std::move(own_graph);
+  const pg::Matrix3 chain_info =
+      Information(options_.two_step.chain_sigma_xy_m, options_.two_step.chain_sigma_yaw_rad);
+  for (const auto& [robot, held] : poses_.all()) {
+    if (!in_problem.count(robot)) continue;
+    const auto g = guess(robot);
+    team::RobotGraph rg;
+    for (std::size_t k = 0; k < held.keyframes.size(); ++k) {
+      rg.poses.push_back(ToPg(held.keyframes[k].T_map_kf));
+      if (k > 0) {
+        team::ChainFactor f;
+        f.from = static_cast<int>(k - 1);
+        f.to = static_cast<int>(k);
+        f.T_from_to =
+            ToPg(reg::Between(held.keyframes[k - 1].T_map_kf, held.keyframes[k].T_map_kf));
+        f.information = chain_info;
+        rg.factors.push_back(f);
+      }
+    }
+    problem.robots[robot] = std::move(rg);
+    problem.maps[{own_id, robot}] = ToPg(*g);
   }
   std::map<int, std::vector<Pose2>> placed;
   bool solved = false;

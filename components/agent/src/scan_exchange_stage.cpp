@@ -22,6 +22,7 @@ void ScanExchangeStage::Forget(int robot) {
   for (auto it = keys_.begin(); it != keys_.end();) {
     it = std::get<0>(*it) == robot ? keys_.erase(it) : std::next(it);
   }
+  loops_seen_until_ = 0;  // the next OnLoops takes every candidate again
 }
 
 ScanExchangeStage::Teammate* ScanExchangeStage::Mate(const msgs::FleetHeader& header) {
@@ -70,7 +71,15 @@ void ScanExchangeStage::OnScanReply(const msgs::ScanReply& reply) {
 }
 
 void ScanExchangeStage::OnLoops(const std::vector<msgs::InterRobotLoop>& loops) {
-  for (const auto& l : loops) keys_.insert({l.teammate_robot, l.own_keyframe, l.teammate_keyframe});
+  // The filter numbers its candidates in the order it takes them and sends every one each
+  // step: a candidate below the highest id seen is already in keys_.
+  std::uint64_t until = loops_seen_until_;
+  for (const auto& l : loops) {
+    if (l.id < loops_seen_until_) continue;
+    keys_.insert({l.teammate_robot, l.own_keyframe, l.teammate_keyframe});
+    until = std::max(until, l.id + 1);
+  }
+  loops_seen_until_ = until;
 }
 
 void ScanExchangeStage::RebuildOwnScans() {

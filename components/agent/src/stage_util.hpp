@@ -86,12 +86,18 @@ class WallTimer {
 
 // Distinct keyframes of each robot named by a set of loops: the smaller of the two counts.
 inline int DistinctKeyframes(const std::vector<const msgs::InterRobotLoop*>& loops) {
-  std::set<int> own, mate;
+  std::vector<int> own, mate;
+  own.reserve(loops.size());
+  mate.reserve(loops.size());
   for (const auto* l : loops) {
-    own.insert(l->own_keyframe);
-    mate.insert(l->teammate_keyframe);
+    own.push_back(l->own_keyframe);
+    mate.push_back(l->teammate_keyframe);
   }
-  return static_cast<int>(std::min(own.size(), mate.size()));
+  const auto distinct = [](std::vector<int>& v) {
+    std::sort(v.begin(), v.end());
+    return static_cast<std::size_t>(std::unique(v.begin(), v.end()) - v.begin());
+  };
+  return static_cast<int>(std::min(distinct(own), distinct(mate)));
 }
 
 // Distance between two map-to-map transforms where it matters: at the point c (teammate map

@@ -30,20 +30,47 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
   nx_ = static_cast<int>(std::ceil((x1 - x0 + 2 * o.range_m) / cell_m_)) + 1;
   ny_ = static_cast<int>(std::ceil((y1 - y0 + 2 * o.range_m) / cell_m_)) + 1;
   cells_.assign(std::size_t(nx_) * ny_, 0);
-  const int r = static_cast<int>(std::ceil(o.range_m / cell_m_));
-  const double cos_half = std::cos(std::min(o.half_aperture_rad, M_PI));
+  const double half = std::min(o.half_aperture_rad, M_PI);
+  const double cos_half = std::cos(half);
+  const double r2 = o.range_m * o.range_m;
   for (const auto& p : poses) {
     const double hx = std::cos(p.yaw_rad), hy = std::sin(p.yaw_rad);
-    const int cx = static_cast<int>((p.x_m - x0_) / cell_m_);
-    const int cy = static_cast<int>((p.y_m - y0_) / cell_m_);
-    for (int iy = std::max(0, cy - r); iy <= std::min(ny_ - 1, cy + r); ++iy) {
-      for (int ix = std::max(0, cx - r); ix <= std::min(nx_ - 1, cx + r); ++ix) {
-        std::uint8_t& cell = cells_[std::size_t(iy) * nx_ + ix];
+    // The sector's bounding box: the apex, the arc's ends and the circle's axis points on the
+    // arc. Cells outside it cannot pass the test below; one cell of margin for rounding.
+    double bx0 = p.x_m, bx1 = p.x_m, by0 = p.y_m, by1 = p.y_m;
+    const auto extend = [&](double angle) {
+      const double x = p.x_m + o.range_m * std::cos(angle), y = p.y_m + o.range_m * std::sin(angle);
+      bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y),
+      by1 = std::max(by1, y);
+    };
+    extend(p.yaw_rad - half);
+    extend(p.yaw_rad + half);
+    for (int k = 0; k < 4; ++k) {
+      const double axis = k * M_PI / 2.0;
+      if (std::abs(std::remainder(axis - p.yaw_rad, 2.0 * M_PI)) <= half) extend(axis);
+    }
+    const int iy0 = std::max(0, static_cast<int>(std::floor((by0 - y0_) / cell_m_)) - 1);
+    const int iy1 = std::min(ny_ - 1, static_cast<int>(std::floor((by1 - y0_) / cell_m_)) + 1);
+    const int bix0 = std::max(0, static_cast<int>(std::floor((bx0 - x0_) / cell_m_)) - 1);
+    const int bix1 = std::min(nx_ - 1, static_cast<int>(std::floor((bx1 - x0_) / cell_m_)) + 1);
+    for (int iy = iy0; iy <= iy1; ++iy) {
+      const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
+      const double s2 = r2 - dy * dy;
+      if (s2 < 0.0) continue;
+      // The row's cells within range: centre x within p.x +- sqrt(r^2 - dy^2), one cell of
+      // margin.
+      const double sx = std::sqrt(s2);
+      const int ix0 =
+          std::max(bix0, static_cast<int>(std::floor((p.x_m - sx - x0_) / cell_m_)) - 1);
+      const int ix1 =
+          std::min(bix1, static_cast<int>(std::floor((p.x_m + sx - x0_) / cell_m_)) + 1);
+      std::uint8_t* row = cells_.data() + std::size_t(iy) * nx_;
+      for (int ix = ix0; ix <= ix1; ++ix) {
+        std::uint8_t& cell = row[ix];
         if (cell) continue;
         const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
-        const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
         const double d2 = dx * dx + dy * dy;
-        if (d2 > o.range_m * o.range_m) continue;
+        if (d2 > r2) continue;
         // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
         if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
         cell = 1;

@@ -326,7 +326,8 @@ class ScanExchangeStage {
   void OnKeyframePoses(const msgs::KeyframePoses& poses);
   void OnScanRequest(const msgs::ScanRequest& request);
   void OnScanReply(const msgs::ScanReply& reply);
-  // Keyframe pairs already held as candidates (the filter's set): never registered again.
+  // Keyframe pairs already held as candidates (the filter's set, every one each step, numbered
+  // in the order the filter took them): never registered again.
   void OnLoops(const std::vector<msgs::InterRobotLoop>& loops);
   void Forget(int robot);
   Output Step(double now_s, const msgs::ObjectMap& own_objects, const msgs::MapMatches& matches,
@@ -352,6 +353,7 @@ class ScanExchangeStage {
   Roster roster_;
   std::map<int, Teammate> mates_;
   std::set<std::tuple<int, int, int>> keys_;  // teammate, own keyframe, teammate keyframe
+  std::uint64_t loops_seen_until_ = 0;        // OnLoops: candidates with lower ids are in keys_
   std::uint64_t scans_version_ = ~std::uint64_t{0};
   std::vector<registration::KeyframeScan> own_scans_;
   std::vector<registration::KeyframeInfo> own_info_;
@@ -664,7 +666,7 @@ class OptimizerStage {
   bool own_graph_changed_ = true;
   std::map<int, bool> graph_changed_;  // per teammate, since the last PGO
   std::map<int, std::uint32_t> match_counts_;
-  std::set<std::uint64_t> accepted_ids_;
+  std::vector<std::uint64_t> accepted_ids_;  // after the last step, ascending
   bool accepted_changed_ = false;
   double last_optimize_s_;
   bool optimized_once_ = false;
