@@ -464,7 +464,7 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   {
     struct Evidence {
       int loops = 0;
-      std::vector<int> own_kfs, mate_kfs;  // distinct after the loop below
+      std::vector<int> own_kfs, mate_kfs;  // one entry per loop
     };
     std::map<int, Evidence> evidence;
     for (const auto& l : candidates) {
@@ -473,12 +473,6 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       ++e.loops;
       e.own_kfs.push_back(l.own_keyframe);
       e.mate_kfs.push_back(l.teammate_keyframe);
-    }
-    for (auto& [robot, e] : evidence) {
-      for (auto* v : {&e.own_kfs, &e.mate_kfs}) {
-        std::sort(v->begin(), v->end());
-        v->erase(std::unique(v->begin(), v->end()), v->end());
-      }
     }
     estimate_.map_checks.clear();
     estimate_.rotation_lever_m.clear();
@@ -489,8 +483,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
         held = "loops";
         continue;
       }
-      if (static_cast<int>(e.own_kfs.size()) < options_.min_distinct_keyframes ||
-          static_cast<int>(e.mate_kfs.size()) < options_.min_distinct_keyframes) {
+      if (CountDistinct(e.own_kfs) < options_.min_distinct_keyframes ||
+          CountDistinct(e.mate_kfs) < options_.min_distinct_keyframes) {
         held = "keyframes";
         continue;
       }

@@ -84,6 +84,12 @@ class WallTimer {
   std::chrono::steady_clock::time_point t0_;
 };
 
+// The number of distinct values.
+inline int CountDistinct(std::vector<int> v) {
+  std::sort(v.begin(), v.end());
+  return static_cast<int>(std::unique(v.begin(), v.end()) - v.begin());
+}
+
 // Distinct keyframes of each robot named by a set of loops: the smaller of the two counts.
 inline int DistinctKeyframes(const std::vector<const msgs::InterRobotLoop*>& loops) {
   std::vector<int> own, mate;
@@ -93,11 +99,7 @@ inline int DistinctKeyframes(const std::vector<const msgs::InterRobotLoop*>& loo
     own.push_back(l->own_keyframe);
     mate.push_back(l->teammate_keyframe);
   }
-  const auto distinct = [](std::vector<int>& v) {
-    std::sort(v.begin(), v.end());
-    return static_cast<std::size_t>(std::unique(v.begin(), v.end()) - v.begin());
-  };
-  return static_cast<int>(std::min(distinct(own), distinct(mate)));
+  return std::min(CountDistinct(std::move(own)), CountDistinct(std::move(mate)));
 }
 
 // Distance between two map-to-map transforms where it matters: at the point c (teammate map

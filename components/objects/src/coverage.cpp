@@ -40,7 +40,9 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
     double bx0 = p.x_m, bx1 = p.x_m, by0 = p.y_m, by1 = p.y_m;
     const auto extend = [&](double angle) {
       const double x = p.x_m + o.range_m * std::cos(angle), y = p.y_m + o.range_m * std::sin(angle);
-      bx0 = std::min(bx0, x), bx1 = std::max(bx1, x), by0 = std::min(by0, y),
+      bx0 = std::min(bx0, x);
+      bx1 = std::max(bx1, x);
+      by0 = std::min(by0, y);
       by1 = std::max(by1, y);
     };
     extend(p.yaw_rad - half);
