@@ -1129,6 +1129,69 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnceItPlacedThisRobotTooAndTheyAgree) {
   EXPECT_THROW(OptimizerStage{o}, std::invalid_argument);
 }
 
+// settle_s 30: five independent true loops place robot 1 at T_0_1, but only once that
+// placement has held for 30 s (steps without new loops place it when the time is up). Loops
+// that move it 3 m (five others, replacing the first) start the wait again; off, each
+// placement is in the estimate at once.
+TEST(OptimizerStage, PlacesATeammateOnlyOnceItsPlacementHasHeld) {
+  const auto run = [](double settle_s) {
+    OptimizerStageOptions o = OtherRulesOptions();
+    o.settle_s = settle_s;
+    o.settle_max_move_m = 1.0;
+    OptimizerStage stage(o);
+    const msgs::KeyframeTrajectory traj = OwnStraightLine(&stage, 8);
+    const TeammateOne mate(&stage);
+    const std::vector<msgs::InterRobotLoop> first =
+        mate.Loops(traj, 11, {{1, 2}, {3, 4}, {5, 6}, {1, 4}, {3, 6}});
+    const Pose2 T_moved{mate.T_0_1.x_m + 3.0, mate.T_0_1.y_m, mate.T_0_1.yaw_rad};
+    std::vector<msgs::InterRobotLoop> moved =
+        mate.Loops(traj, 21, {{2, 1}, {4, 3}, {6, 5}, {2, 5}, {4, 7}});
+    for (auto& l : moved) {
+      l.T_ownkf_teammatekf = reg::Between(
+          traj.keyframes[static_cast<std::size_t>(l.own_keyframe)].T_map_kf,
+          reg::Compose(T_moved,
+                       mate.poses.poses[static_cast<std::size_t>(l.teammate_keyframe)].T_map_kf));
+    }
+    std::vector<std::pair<std::string, std::optional<Pose2>>> seen;  // held, T per step
+    msgs::TeamStepStats st;
+    const auto step = [&](double t_s, const std::vector<msgs::InterRobotLoop>& loops) {
+      stage.Step(t_s, loops, mate.matches, &st);
+      const auto& e = stage.estimate();
+      const auto h = e.held.find(1);
+      const auto T = e.T_own_teammate.find(1);
+      EXPECT_EQ(e.trajectories.count(1), T != e.T_own_teammate.end() ? 1u : 0u) << t_s;
+      EXPECT_EQ(stage.SharedTransforms().size(), 1u) << t_s;  // shared while it waits
+      seen.emplace_back(h != e.held.end() ? h->second : "",
+                        T != e.T_own_teammate.end() ? std::optional<Pose2>(T->second)
+                                                    : std::nullopt);
+    };
+    step(10.0, first);
+    step(25.0, first);
+    step(41.0, first);
+    step(50.0, moved);
+    step(70.0, moved);
+    step(81.0, moved);
+    return seen;
+  };
+  const Pose2 T_0_1 = TeammateOne(nullptr).T_0_1;
+  const auto at = [](const std::optional<Pose2>& T, double x_m) {
+    return T.has_value() && std::abs(T->x_m - x_m) < 1e-3;
+  };
+  const auto settled = run(30.0);
+  ASSERT_EQ(settled.size(), 6u);
+  for (const int i : {0, 1, 3, 4}) {
+    EXPECT_EQ(settled[i].first, "settling") << i;
+    EXPECT_FALSE(settled[i].second.has_value()) << i;
+  }
+  EXPECT_EQ(settled[2].first, "");  // held 31 s
+  EXPECT_TRUE(at(settled[2].second, T_0_1.x_m));
+  EXPECT_EQ(settled[5].first, "");  // the moved placement held 31 s
+  EXPECT_TRUE(at(settled[5].second, T_0_1.x_m + 3.0));
+  const auto off = run(0.0);
+  for (const int i : {0, 1, 2}) EXPECT_TRUE(at(off[i].second, T_0_1.x_m)) << i;
+  for (const int i : {3, 4, 5}) EXPECT_TRUE(at(off[i].second, T_0_1.x_m + 3.0)) << i;
+}
+
 TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   // Five independent true loops place robot 1 (as above) while the teammate's objects lie on
   // own sonar returns under them. When the teammate's map holds three more objects where the

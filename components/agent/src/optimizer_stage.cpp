@@ -60,6 +60,8 @@ std::vector<msgs::Heartbeat::Transform> OptimizerStage::SharedTransforms() const
       out.push_back({robot, it->second});
     } else if (const auto u = unconfirmed_.find(robot); u != unconfirmed_.end()) {
       out.push_back({robot, u->second});  // waiting for mutual placement
+    } else if (const auto w = settling_.find(robot); w != settling_.end()) {
+      out.push_back({robot, w->second.T_own_teammate});  // waiting for it to settle
     }
   }
   return out;
@@ -78,6 +80,8 @@ void OptimizerStage::Forget(int robot) {
   estimate_.trajectories.erase(robot);
   estimate_.T_own_teammate.erase(robot);
   warm_.erase(robot);
+  settling_.erase(robot);
+  placements_.erase(robot);
   own_graph_changed_ = true;  // the estimate is recomputed without it
 }
 
@@ -334,6 +338,57 @@ double OptimizerStage::MutualGap(int robot, const Pose2& T_own_mate,
   return n > 0 ? std::sqrt(sum_m2 / n) : std::numeric_limits<double>::infinity();
 }
 
+bool OptimizerStage::Settled(int robot, double now_s, const Pose2& T_own_mate) {
+  auto& history = placements_[robot];
+  const auto same = [](const Pose2& a, const Pose2& b) {
+    return a.x_m == b.x_m && a.y_m == b.y_m && a.yaw_rad == b.yaw_rad;
+  };
+  if (history.empty() || !same(history.back().second, T_own_mate))
+    history.emplace_back(now_s, T_own_mate);  // an unchanged placement keeps its time
+  // Keep one placement at or before now - settle_s, the anchor, and every one after it.
+  while (history.size() >= 2 && history[1].first <= now_s - options_.settle_s)
+    history.pop_front();
+  if (history.front().first > now_s - options_.settle_s) return false;  // not held so long
+  const auto* held = poses_.Find(robot);
+  if (held == nullptr) return false;
+  for (const auto& [t_s, T] : history) {
+    double sum_m2 = 0.0;
+    int n = 0;
+    for (std::size_t k = 0; k < held->keyframes.size(); ++k) {
+      if (!held->known[k]) continue;
+      const msgs::Point2 p{held->keyframes[k].T_map_kf.x_m, held->keyframes[k].T_map_kf.y_m};
+      const msgs::Point2 a = reg::Apply(T, p);
+      const msgs::Point2 b = reg::Apply(T_own_mate, p);
+      sum_m2 += (a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m);
+      ++n;
+    }
+    if (n == 0 || std::sqrt(sum_m2 / n) > options_.settle_max_move_m) return false;
+  }
+  return true;
+}
+
+void OptimizerStage::PlaceSettled(double now_s, const std::vector<Pose2>& own_poses,
+                                  const std::vector<bool>& own_real) {
+  for (auto it = settling_.begin(); it != settling_.end();) {
+    const int robot = it->first;
+    if (!loop_verified_.count(robot) || !Settled(robot, now_s, it->second.T_own_teammate)) {
+      ++it;
+      continue;
+    }
+    if (options_.mutual_placement_max_gap_m > 0.0 &&
+        MutualGap(robot, it->second.T_own_teammate, own_poses, own_real) >
+            options_.mutual_placement_max_gap_m) {
+      unconfirmed_[robot] = it->second.T_own_teammate;
+      estimate_.held[robot] = "mutual";
+    } else {
+      estimate_.T_own_teammate[robot] = it->second.T_own_teammate;
+      estimate_.trajectories[robot] = std::move(it->second.trajectory);
+      estimate_.held.erase(robot);
+    }
+    it = settling_.erase(it);
+  }
+}
+
 double OptimizerStage::RotationLever(int robot,
                                      const std::vector<msgs::InterRobotLoop>& candidates) const {
   const auto* held = poses_.Find(robot);
@@ -511,6 +566,8 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
       // Still waiting for mutual placement (a step that does not solve keeps it so).
       if (unconfirmed_.count(robot)) {
         held = "mutual";
+      } else if (settling_.count(robot)) {
+        held = "settling";
       } else {
         estimate_.held.erase(robot);
       }
@@ -588,8 +645,11 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
   const bool due = now_s - last_optimize_s_ >= options_.optimize_period_s;
   const bool pgo = have_loops && due && (accepted_changed_ || graphs_changed);
   if (!pgo) {
-    if (have_loops && optimized_once_) return;  // the last PGO stands until the next one
-    if (!graphs_changed && !estimate_.trajectories.empty()) return;  // nothing new to place
+    const bool stands = have_loops && optimized_once_;  // the last PGO stands until the next one
+    if (stands || (!graphs_changed && !estimate_.trajectories.empty())) {  // nothing new
+      PlaceSettled(now_s, own_poses, own_real);
+      return;
+    }
   }
   // The robots' graphs, only for a step that solves or places (the others return above).
   team::RobotGraph own_graph;
@@ -735,6 +795,22 @@ void OptimizerStage::Step(double now_s, const std::vector<msgs::InterRobotLoop>&
     if (aligned && options_.rigid_teammate_trajectories) {
       for (std::size_t i = 0; i < traj.size(); ++i)
         traj[i].T_map_kf = reg::Compose(*aligned, local[i]);
+    }
+  }
+  if (options_.settle_s > 0.0) {
+    // A loop-verified teammate stays out until its solved placement has held for settle_s (a
+    // step that does not solve keeps the holds; a placement never solved is held).
+    if (solved) settling_.clear();
+    for (const int robot : loop_verified_) {
+      const auto it = next.T_own_teammate.find(robot);
+      if (it == next.T_own_teammate.end()) continue;
+      if (solved ? Settled(robot, now_s, it->second)
+                 : !settling_.count(robot) && placements_.count(robot))
+        continue;
+      if (solved) settling_[robot] = {it->second, next.trajectories[robot]};
+      next.held[robot] = "settling";
+      next.T_own_teammate.erase(it);
+      next.trajectories.erase(robot);
     }
   }
   if (options_.mutual_placement_max_gap_m > 0.0) {

@@ -784,6 +784,16 @@ class TwoStepOptimizerComponent final : public graph::Component {
                        "(0: off)",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("settle_s", &o_.settle_s,
+               {.doc = "place a loop-verified teammate only once its solved placement has held "
+                       "this long (settle_max_move_m; 0: off)",
+                .unit = "s",
+                .min = 0.0});
+    spec.Param("settle_max_move_m", &o_.settle_max_move_m,
+               {.doc = "the RMS distance the teammate's keyframes may move between the "
+                       "placements of the last settle_s",
+                .unit = "m",
+                .min = 0.0});
     spec.Param("max_rotation_lever_m", &o_.max_rotation_lever_m,
                {.doc = "no placement while the teammate's keyframes reach further than this "
                        "from its loops' keyframes, weighted by the rotation the loops and "

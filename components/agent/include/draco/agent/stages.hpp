@@ -479,6 +479,14 @@ struct OptimizerStageOptions {
   // (so that neither waits for the other), so it cannot be combined with
   // place_chained_teammates (std::invalid_argument).
   double mutual_placement_max_gap_m = 2.0;
+  // Settled placement (settle_s 0: off). A loop-verified teammate enters the estimate only once
+  // its solved placement has held for settle_s: the placement of the last solve at least
+  // settle_s ago and of every solve since move the teammate's keyframes by an RMS of at most
+  // settle_max_move_m from the current one. A first placement on few loops moves as loops
+  // accrue; a placement that has not stopped moving is not yet evidence. Held placements are
+  // still shared (mutual placement does not wait on it).
+  double settle_s = 0.0;
+  double settle_max_move_m = 1.0;
   int max_teammate_keyframes = 20000;
   // The own trajectory enters the two-step PGO as a chain of its relative poses with these
   // sigmas per keyframe step. The reference's 0.1 m / 0.01 rad let true but imprecise loops
@@ -601,7 +609,8 @@ struct TeamEstimate {
   // Why each teammate with accepted loops is not placed, this step: "loops" (fewer than
   // min_teammate_loops), "keyframes" (min_distinct_keyframes), "rival" (competitor_ratio),
   // "map" (the map check contradicts it), "lever" (max_rotation_lever_m), "mutual"
-  // (mutual_placement_max_gap_m: not placed by it, or the two disagree).
+  // (mutual_placement_max_gap_m: not placed by it, or the two disagree), "settling"
+  // (settle_s: the placement has not held long enough).
   std::map<int, std::string> held;
   int loops_in_pgo = 0;  // accepted loops the problem held (max_loops_per_teammate_keyframe)
 };
@@ -653,6 +662,12 @@ class OptimizerStage {
   double MutualGap(int robot, const msgs::Pose2& T_own_mate,
                    const std::vector<msgs::Pose2>& own_poses,
                    const std::vector<bool>& own_real) const;
+  // Whether `robot`'s placement T_own_mate, solved at now_s, has held (settle_s); records it.
+  bool Settled(int robot, double now_s, const msgs::Pose2& T_own_mate);
+  // On a step that does not solve: places the held teammates whose placement has now held
+  // (settle_s), through the mutual check (mutual_placement_max_gap_m) as a solving step does.
+  void PlaceSettled(double now_s, const std::vector<msgs::Pose2>& own_poses,
+                    const std::vector<bool>& own_real);
   // OptimizerStageOptions::max_rotation_lever_m's lever for `robot`'s accepted loops.
   double RotationLever(int robot, const std::vector<msgs::InterRobotLoop>& candidates) const;
   std::optional<MapCheck> CheckMaps(int robot, const std::vector<msgs::InterRobotLoop>& candidates,
@@ -679,6 +694,15 @@ class OptimizerStage {
   std::set<int> loop_verified_;                                    // after the last step
   // Loop-verified teammates waiting for mutual placement: T_own_teammate, shared, not placed.
   std::map<int, msgs::Pose2> unconfirmed_;
+  // Loop-verified teammates whose placement has not settled (settle_s): shared, not placed;
+  // a step that does not solve places one once its standing placement has held.
+  struct Settling {
+    msgs::Pose2 T_own_teammate;
+    std::vector<msgs::KeyframePose> trajectory;
+  };
+  std::map<int, Settling> settling_;
+  // Per teammate, the solved placements of the last settle_s (and the last one before).
+  std::map<int, std::deque<std::pair<double, msgs::Pose2>>> placements_;
   msgs::ObjectMap own_objects_;
   struct HeldObjects {
     double time_s = 0.0;  // when the teammate sent it: its coverage is counted up to then
