@@ -1161,9 +1161,9 @@ TEST(OptimizerStage, PlacesATeammateOnlyOnceItsPlacementHasHeld) {
       const auto T = e.T_own_teammate.find(1);
       EXPECT_EQ(e.trajectories.count(1), T != e.T_own_teammate.end() ? 1u : 0u) << t_s;
       EXPECT_EQ(stage.SharedTransforms().size(), 1u) << t_s;  // shared while it waits
-      seen.emplace_back(h != e.held.end() ? h->second : "",
-                        T != e.T_own_teammate.end() ? std::optional<Pose2>(T->second)
-                                                    : std::nullopt);
+      seen.emplace_back(h != e.held.end() ? h->second : "", T != e.T_own_teammate.end()
+                                                                ? std::optional<Pose2>(T->second)
+                                                                : std::nullopt);
     };
     step(10.0, first);
     step(25.0, first);

@@ -346,8 +346,7 @@ bool OptimizerStage::Settled(int robot, double now_s, const Pose2& T_own_mate) {
   if (history.empty() || !same(history.back().second, T_own_mate))
     history.emplace_back(now_s, T_own_mate);  // an unchanged placement keeps its time
   // Keep one placement at or before now - settle_s, the anchor, and every one after it.
-  while (history.size() >= 2 && history[1].first <= now_s - options_.settle_s)
-    history.pop_front();
+  while (history.size() >= 2 && history[1].first <= now_s - options_.settle_s) history.pop_front();
   if (history.front().first > now_s - options_.settle_s) return false;  // not held so long
   const auto* held = poses_.Find(robot);
   if (held == nullptr) return false;
