@@ -585,6 +585,41 @@ TEST(Matcher, CoverageMarksExactlyTheCellsInsideTheSectors) {
   }
 }
 
+// With shadows on, a keyframe does not observe what lies behind a return it got (two returns
+// within 1 m of range in one bearing bin); scattered returns cast none, and another
+// keyframe that looks past the wall still observes the cell.
+TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
+  CoverageOptions o;
+  o.range_m = 20.0;
+  o.shadow_margin_m = 1.0;
+  const std::vector<msgs::Pose2> pose{{0.0, 0.0, 0.0}};
+  std::vector<msgs::Point2> wall, speckle;  // a wall 2 m wide at 10 m, two returns deep
+  for (int i = -10; i <= 10; ++i) {
+    wall.push_back({10.0, 0.1 * i});
+    wall.push_back({10.4, 0.1 * i});
+  }
+  for (int i = -10; i <= 10; ++i) {  // one return per bearing bin (3 deg apart)
+    const double bearing = 3.0 * i * M_PI / 180.0;
+    speckle.push_back({10.0 * std::cos(bearing), 10.0 * std::sin(bearing)});
+  }
+  const Coverage off(pose, {&wall}, CoverageOptions{});  // shadow_margin_m 0
+  const Coverage shadowed(pose, {&wall}, o);
+  const Coverage single(pose, {&speckle}, o);
+  const msgs::Point2 behind{15.0, 0.2}, at_wall{10.5, 0.0}, beside{15.0, 5.0}, front{6.0, 0.0};
+  EXPECT_TRUE(off.Observed(behind));
+  EXPECT_FALSE(shadowed.Observed(behind));
+  EXPECT_TRUE(shadowed.Observed(at_wall));  // within the margin
+  EXPECT_TRUE(shadowed.Observed(front));
+  EXPECT_TRUE(shadowed.Observed(beside));  // 18 deg: another bin
+  EXPECT_TRUE(single.Observed(behind));
+  // A second keyframe 10 m to the side, looking along +y at x = 15: nothing in its way.
+  const std::vector<msgs::Pose2> two{{0.0, 0.0, 0.0}, {15.0, -10.0, M_PI / 2}};
+  const Coverage both(two, {&wall, nullptr}, o);
+  EXPECT_TRUE(both.Observed(behind));
+  // The plain constructor is the shadowless one.
+  EXPECT_EQ(Coverage(pose, o).Observed(behind), true);
+}
+
 TEST(Matcher, CompareObjectMapsCountsWhatEachRobotShouldHaveSeen) {
   RowScene s = MakeRow(1);
   for (auto* m : {&s.a, &s.b}) {

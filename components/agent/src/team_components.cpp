@@ -845,6 +845,11 @@ class TwoStepOptimizerComponent final : public graph::Component {
                {.doc = "an object is expected where it lies within this range of a keyframe",
                 .unit = "m",
                 .min = 0.0});
+    spec.Param("map_shadow_margin_m", &o_.map_coverage.shadow_margin_m,
+               {.doc = "... but not where an own keyframe's returns shadow it: farther than "
+                       "its nearest return in that bearing (two within 1 m) plus this "
+                       "(<= 0: off)",
+                .unit = "m"});
     spec.Param("max_heading_gap_rad", &o_.max_heading_gap_rad,
                {.doc = "no placement whose rotation differs from the maps' absolute headings' "
                        "difference by more than this (<= 0: off)",

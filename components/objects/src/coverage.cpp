@@ -15,9 +15,41 @@ namespace {
 using detail::Distance;
 using msgs::ObjectMap;
 
+// Per bearing bin of a keyframe's aperture, how far its sonar saw: the nearest range holding
+// min_points returns within 1 m, plus the margin; the sector's range where none does.
+void ShadowRanges(const std::vector<Point2>& returns, double half_rad, int bins,
+                  const CoverageOptions& o, std::vector<double>* seen_m) {
+  std::vector<std::vector<double>> ranges(static_cast<std::size_t>(bins));
+  for (const auto& q : returns) {
+    const double bearing = std::atan2(q.y_m, q.x_m);
+    if (std::abs(bearing) > half_rad) continue;
+    const int b =
+        std::clamp(static_cast<int>((bearing + half_rad) / o.shadow_bin_rad), 0, bins - 1);
+    ranges[static_cast<std::size_t>(b)].push_back(std::hypot(q.x_m, q.y_m));
+  }
+  const std::size_t need = static_cast<std::size_t>(std::max(1, o.shadow_min_points));
+  seen_m->assign(static_cast<std::size_t>(bins), o.range_m);
+  for (std::size_t b = 0; b < ranges.size(); ++b) {
+    auto& r = ranges[b];
+    if (r.size() < need) continue;
+    std::sort(r.begin(), r.end());
+    for (std::size_t i = 0; i + need - 1 < r.size(); ++i) {
+      if (r[i + need - 1] - r[i] <= 1.0) {
+        (*seen_m)[b] = std::min(o.range_m, r[i] + o.shadow_margin_m);
+        break;
+      }
+    }
+  }
+}
+
 }  // namespace
 
-Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
+Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o)
+    : Coverage(poses, {}, o) {}
+
+Coverage::Coverage(const std::vector<Pose2>& poses,
+                   const std::vector<const std::vector<Point2>*>& returns_sensor,
+                   const CoverageOptions& o) {
   if (poses.empty()) return;
   cell_m_ = o.cell_m;
   double x0 = poses[0].x_m, x1 = x0, y0 = poses[0].y_m, y1 = y0;
@@ -33,8 +65,15 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
   const double half = std::min(o.half_aperture_rad, M_PI);
   const double cos_half = std::cos(half);
   const double r2 = o.range_m * o.range_m;
-  for (const auto& p : poses) {
+  const bool shadows = o.shadow_margin_m > 0.0 && o.shadow_bin_rad > 0.0;
+  const int bins = shadows ? static_cast<int>(std::ceil(2.0 * half / o.shadow_bin_rad)) : 0;
+  std::vector<double> seen_m;  // per bearing bin: how far the keyframe saw
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const auto& p = poses[k];
     const double hx = std::cos(p.yaw_rad), hy = std::sin(p.yaw_rad);
+    const std::vector<Point2>* returns = k < returns_sensor.size() ? returns_sensor[k] : nullptr;
+    const bool shadowed = shadows && returns != nullptr && !returns->empty();
+    if (shadowed) ShadowRanges(*returns, half, bins, o, &seen_m);
     // The sector's bounding box: the apex, the arc's ends and the circle's axis points on the
     // arc. Cells outside it cannot pass the test below; one cell of margin for rounding.
     double bx0 = p.x_m, bx1 = p.x_m, by0 = p.y_m, by1 = p.y_m;
@@ -47,8 +86,8 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
     };
     extend(p.yaw_rad - half);
     extend(p.yaw_rad + half);
-    for (int k = 0; k < 4; ++k) {
-      const double axis = k * M_PI / 2.0;
+    for (int q = 0; q < 4; ++q) {
+      const double axis = q * M_PI / 2.0;
       if (std::abs(std::remainder(axis - p.yaw_rad, 2.0 * M_PI)) <= half) extend(axis);
     }
     const int iy0 = std::max(0, static_cast<int>(std::floor((by0 - y0_) / cell_m_)) - 1);
@@ -75,6 +114,13 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o) {
         if (d2 > r2) continue;
         // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
         if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
+        if (shadowed) {
+          const double bearing = std::atan2(hx * dy - hy * dx, hx * dx + hy * dy);
+          const int b =
+              std::clamp(static_cast<int>((bearing + half) / o.shadow_bin_rad), 0, bins - 1);
+          if (d2 > seen_m[static_cast<std::size_t>(b)] * seen_m[static_cast<std::size_t>(b)])
+            continue;
+        }
         cell = 1;
       }
     }
