@@ -585,8 +585,8 @@ TEST(Matcher, CoverageMarksExactlyTheCellsInsideTheSectors) {
   }
 }
 
-// With shadows on, a keyframe does not observe what lies behind a return it got (two returns
-// within 1 m of range in one bearing bin); scattered returns cast none, and another
+// With shadows on, a keyframe does not observe what lies behind the robot's returns (a cell
+// holding 3 of them); scattered returns cast none, and another
 // keyframe that looks past the wall still observes the cell.
 TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
   CoverageOptions o;
@@ -595,16 +595,16 @@ TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
   const std::vector<msgs::Pose2> pose{{0.0, 0.0, 0.0}};
   std::vector<msgs::Point2> wall, speckle;  // a wall 2 m wide at 10 m, two returns deep
   for (int i = -10; i <= 10; ++i) {
-    wall.push_back({10.0, 0.1 * i});
+    wall.push_back({10.1, 0.1 * i});
     wall.push_back({10.4, 0.1 * i});
   }
   for (int i = -10; i <= 10; ++i) {  // one return per bearing bin (3 deg apart)
     const double bearing = 3.0 * i * M_PI / 180.0;
     speckle.push_back({10.0 * std::cos(bearing), 10.0 * std::sin(bearing)});
   }
-  const Coverage off(pose, {&wall}, CoverageOptions{});  // shadow_margin_m 0
-  const Coverage shadowed(pose, {&wall}, o);
-  const Coverage single(pose, {&speckle}, o);
+  const Coverage off(pose, wall, CoverageOptions{});  // shadow_margin_m 0
+  const Coverage shadowed(pose, wall, o);
+  const Coverage single(pose, speckle, o);
   const msgs::Point2 behind{15.0, 0.2}, at_wall{10.5, 0.0}, beside{15.0, 5.0}, front{6.0, 0.0};
   EXPECT_TRUE(off.Observed(behind));
   EXPECT_FALSE(shadowed.Observed(behind));
@@ -614,7 +614,7 @@ TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
   EXPECT_TRUE(single.Observed(behind));
   // A second keyframe 10 m to the side, looking along +y at x = 15: nothing in its way.
   const std::vector<msgs::Pose2> two{{0.0, 0.0, 0.0}, {15.0, -10.0, M_PI / 2}};
-  const Coverage both(two, {&wall, nullptr}, o);
+  const Coverage both(two, wall, o);
   EXPECT_TRUE(both.Observed(behind));
   // The plain constructor is the shadowless one.
   EXPECT_EQ(Coverage(pose, o).Observed(behind), true);

@@ -47,17 +47,15 @@ void OwnKeyframes::OnTrajectory(const msgs::KeyframeTrajectory& trajectory) {
 const OwnSonar& OwnSonar::Update(const OwnKeyframes& own, const objects::CoverageOptions& options) {
   if (version == own.version()) return *this;
   std::vector<msgs::Pose2> poses;
-  std::vector<const std::vector<msgs::Point2>*> returns_kf;  // for the coverage's shadows
   std::vector<msgs::Point2> returns;
   for (const auto& [k, e] : own.entries()) {
     if (!e.has_pose) continue;
     poses.push_back(e.T_map_kf);
-    returns_kf.push_back(e.has_points ? &e.points_kf : nullptr);
     if (!e.has_points) continue;
     for (const auto& p : e.points_kf) returns.push_back(reg::Apply(e.T_map_kf, p));
   }
   version = own.version();
-  coverage = objects::Coverage(poses, returns_kf, options);
+  coverage = objects::Coverage(poses, returns, options);
   points = objects::PointCounts(returns);
   return *this;
 }

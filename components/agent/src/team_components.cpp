@@ -846,9 +846,9 @@ class TwoStepOptimizerComponent final : public graph::Component {
                 .unit = "m",
                 .min = 0.0});
     spec.Param("map_shadow_margin_m", &o_.map_coverage.shadow_margin_m,
-               {.doc = "... but not where an own keyframe's returns shadow it: farther than "
-                       "its nearest return in that bearing (two within 1 m) plus this "
-                       "(<= 0: off)",
+               {.doc = "... but not where the own returns shadow it from that keyframe: "
+                       "farther than the nearest 1 m cell holding 3 own returns in its bearing "
+                       "plus this (<= 0: off)",
                 .unit = "m"});
     spec.Param("max_heading_gap_rad", &o_.max_heading_gap_rad,
                {.doc = "no placement whose rotation differs from the maps' absolute headings' "

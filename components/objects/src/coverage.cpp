@@ -15,40 +15,12 @@ namespace {
 using detail::Distance;
 using msgs::ObjectMap;
 
-// Per bearing bin of a keyframe's aperture, how far its sonar saw: the nearest range holding
-// min_points returns within 1 m, plus the margin; the sector's range where none does.
-void ShadowRanges(const std::vector<Point2>& returns, double half_rad, int bins,
-                  const CoverageOptions& o, std::vector<double>* seen_m) {
-  std::vector<std::vector<double>> ranges(static_cast<std::size_t>(bins));
-  for (const auto& q : returns) {
-    const double bearing = std::atan2(q.y_m, q.x_m);
-    if (std::abs(bearing) > half_rad) continue;
-    const int b =
-        std::clamp(static_cast<int>((bearing + half_rad) / o.shadow_bin_rad), 0, bins - 1);
-    ranges[static_cast<std::size_t>(b)].push_back(std::hypot(q.x_m, q.y_m));
-  }
-  const std::size_t need = static_cast<std::size_t>(std::max(1, o.shadow_min_points));
-  seen_m->assign(static_cast<std::size_t>(bins), o.range_m);
-  for (std::size_t b = 0; b < ranges.size(); ++b) {
-    auto& r = ranges[b];
-    if (r.size() < need) continue;
-    std::sort(r.begin(), r.end());
-    for (std::size_t i = 0; i + need - 1 < r.size(); ++i) {
-      if (r[i + need - 1] - r[i] <= 1.0) {
-        (*seen_m)[b] = std::min(o.range_m, r[i] + o.shadow_margin_m);
-        break;
-      }
-    }
-  }
-}
-
 }  // namespace
 
 Coverage::Coverage(const std::vector<Pose2>& poses, const CoverageOptions& o)
     : Coverage(poses, {}, o) {}
 
-Coverage::Coverage(const std::vector<Pose2>& poses,
-                   const std::vector<const std::vector<Point2>*>& returns_sensor,
+Coverage::Coverage(const std::vector<Pose2>& poses, const std::vector<Point2>& returns_map,
                    const CoverageOptions& o) {
   if (poses.empty()) return;
   cell_m_ = o.cell_m;
@@ -65,15 +37,24 @@ Coverage::Coverage(const std::vector<Pose2>& poses,
   const double half = std::min(o.half_aperture_rad, M_PI);
   const double cos_half = std::cos(half);
   const double r2 = o.range_m * o.range_m;
-  const bool shadows = o.shadow_margin_m > 0.0 && o.shadow_bin_rad > 0.0;
+  // Shadows: the cells holding shadow_min_points returns, on this grid.
+  const bool shadows = o.shadow_margin_m > 0.0 && o.shadow_bin_rad > 0.0 && !returns_map.empty();
   const int bins = shadows ? static_cast<int>(std::ceil(2.0 * half / o.shadow_bin_rad)) : 0;
+  std::vector<std::uint8_t> solid;
+  if (shadows) {
+    std::vector<int> counts(cells_.size(), 0);
+    for (const auto& q : returns_map) {
+      const double fx = (q.x_m - x0_) / cell_m_, fy = (q.y_m - y0_) / cell_m_;
+      if (fx < 0 || fy < 0 || fx >= nx_ || fy >= ny_) continue;
+      ++counts[std::size_t(fy) * nx_ + std::size_t(fx)];
+    }
+    solid.resize(counts.size());
+    for (std::size_t i = 0; i < counts.size(); ++i)
+      solid[i] = counts[i] >= std::max(1, o.shadow_min_points);
+  }
   std::vector<double> seen_m;  // per bearing bin: how far the keyframe saw
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    const auto& p = poses[k];
+  for (const auto& p : poses) {
     const double hx = std::cos(p.yaw_rad), hy = std::sin(p.yaw_rad);
-    const std::vector<Point2>* returns = k < returns_sensor.size() ? returns_sensor[k] : nullptr;
-    const bool shadowed = shadows && returns != nullptr && !returns->empty();
-    if (shadowed) ShadowRanges(*returns, half, bins, o, &seen_m);
     // The sector's bounding box: the apex, the arc's ends and the circle's axis points on the
     // arc. Cells outside it cannot pass the test below; one cell of margin for rounding.
     double bx0 = p.x_m, bx1 = p.x_m, by0 = p.y_m, by1 = p.y_m;
@@ -94,6 +75,28 @@ Coverage::Coverage(const std::vector<Pose2>& poses,
     const int iy1 = std::min(ny_ - 1, static_cast<int>(std::floor((by1 - y0_) / cell_m_)) + 1);
     const int bix0 = std::max(0, static_cast<int>(std::floor((bx0 - x0_) / cell_m_)) - 1);
     const int bix1 = std::min(nx_ - 1, static_cast<int>(std::floor((bx1 - x0_) / cell_m_)) + 1);
+    if (shadows) {  // per bearing bin, the nearest solid cell (every bin its width covers)
+      seen_m.assign(static_cast<std::size_t>(bins), o.range_m);
+      for (int iy = iy0; iy <= iy1; ++iy) {
+        for (int ix = bix0; ix <= bix1; ++ix) {
+          if (!solid[std::size_t(iy) * nx_ + ix]) continue;
+          const double dx = x0_ + (ix + 0.5) * cell_m_ - p.x_m;
+          const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
+          const double r = std::hypot(dx, dy);
+          if (r > o.range_m || r < cell_m_) continue;
+          const double bearing = std::atan2(hx * dy - hy * dx, hx * dx + hy * dy);
+          const double width = std::atan(0.5 * cell_m_ / r);
+          if (std::abs(bearing) - width > half) continue;
+          const int b0 = std::max(0, static_cast<int>((bearing - width + half) / o.shadow_bin_rad));
+          const int b1 =
+              std::min(bins - 1, static_cast<int>((bearing + width + half) / o.shadow_bin_rad));
+          for (int b = b0; b <= b1; ++b) {
+            auto& seen = seen_m[static_cast<std::size_t>(b)];
+            seen = std::min(seen, r + o.shadow_margin_m);
+          }
+        }
+      }
+    }
     for (int iy = iy0; iy <= iy1; ++iy) {
       const double dy = y0_ + (iy + 0.5) * cell_m_ - p.y_m;
       const double s2 = r2 - dy * dy;
@@ -114,7 +117,7 @@ Coverage::Coverage(const std::vector<Pose2>& poses,
         if (d2 > r2) continue;
         // Within half_aperture of the heading: cos(bearing - yaw) >= cos(half_aperture).
         if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
-        if (shadowed) {
+        if (shadows) {
           const double bearing = std::atan2(hx * dy - hy * dx, hx * dx + hy * dy);
           const int b =
               std::clamp(static_cast<int>((bearing + half) / o.shadow_bin_rad), 0, bins - 1);

@@ -202,23 +202,22 @@ struct CoverageOptions {
   double range_m = 20.0;              // less than the sonar's 30 m: objects far out are faint
   double half_aperture_rad = 1.1345;  // 65 deg, the sonar's 130 deg aperture
   double cell_m = 1.0;
-  // Shadows (the constructor given each keyframe's returns): the sonar does not see behind
-  // what it hit. Each keyframe's aperture is cut into bearing bins of shadow_bin_rad; in a bin
-  // whose returns hold shadow_min_points within 1 m of range (one speckle point casts no
-  // shadow), cells farther than the nearest such range plus shadow_margin_m are not observed
-  // from that keyframe. <= 0: off (every cell of the sector is observed).
+  // Shadows (the constructor given the robot's returns): the sonar does not see behind what
+  // it hit. The returns are counted in the grid's cells; a cell holding shadow_min_points is
+  // solid. Each keyframe's aperture is cut into bearing bins of shadow_bin_rad, and cells
+  // farther than a bin's nearest solid cell plus shadow_margin_m are not observed from that
+  // keyframe (a solid cell blocks every bin its width covers). <= 0: off (every cell of the
+  // sector is observed).
   double shadow_margin_m = 0.0;
   double shadow_bin_rad = 0.0349;  // 2 deg
-  int shadow_min_points = 2;
+  int shadow_min_points = 3;
 };
 class Coverage {
  public:
   Coverage() = default;
   Coverage(const std::vector<Pose2>& sensor_poses, const CoverageOptions& options = {});
-  // With each pose's returns in the sensor frame (returns_sensor[k] for sensor_poses[k]; null:
-  // none), for options.shadow_margin_m.
-  Coverage(const std::vector<Pose2>& sensor_poses,
-           const std::vector<const std::vector<Point2>*>& returns_sensor,
+  // With the robot's returns (every keyframe's, in the map frame), for options.shadow_margin_m.
+  Coverage(const std::vector<Pose2>& sensor_poses, const std::vector<Point2>& returns_map,
            const CoverageOptions& options);
   bool Observed(const Point2& p) const;
   bool empty() const { return cells_.empty(); }
