@@ -586,8 +586,8 @@ TEST(Matcher, CoverageMarksExactlyTheCellsInsideTheSectors) {
 }
 
 // With shadows on, a keyframe does not observe what lies behind the robot's returns (a cell
-// holding 3 of them); scattered returns cast none, and another
-// keyframe that looks past the wall still observes the cell.
+// holding 3 of them); scattered returns cast none, and another keyframe that looks past the
+// wall still observes the cell.
 TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
   CoverageOptions o;
   o.range_m = 20.0;
@@ -617,7 +617,7 @@ TEST(Matcher, CoverageLeavesOutWhatAReturnShadows) {
   const Coverage both(two, wall, o);
   EXPECT_TRUE(both.Observed(behind));
   // The plain constructor is the shadowless one.
-  EXPECT_EQ(Coverage(pose, o).Observed(behind), true);
+  EXPECT_TRUE(Coverage(pose, o).Observed(behind));
 }
 
 TEST(Matcher, CompareObjectMapsCountsWhatEachRobotShouldHaveSeen) {

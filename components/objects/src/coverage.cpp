@@ -40,6 +40,9 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const std::vector<Point2>& r
   // Shadows: the cells holding shadow_min_points returns, on this grid.
   const bool shadows = o.shadow_margin_m > 0.0 && o.shadow_bin_rad > 0.0 && !returns_map.empty();
   const int bins = shadows ? static_cast<int>(std::ceil(2.0 * half / o.shadow_bin_rad)) : 0;
+  const auto bin_of = [&](double bearing_rad) {  // bearing from the heading
+    return std::clamp(static_cast<int>((bearing_rad + half) / o.shadow_bin_rad), 0, bins - 1);
+  };
   std::vector<std::uint8_t> solid;
   if (shadows) {
     std::vector<int> counts(cells_.size(), 0);
@@ -87,9 +90,7 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const std::vector<Point2>& r
           const double bearing = std::atan2(hx * dy - hy * dx, hx * dx + hy * dy);
           const double width = std::atan(0.5 * cell_m_ / r);
           if (std::abs(bearing) - width > half) continue;
-          const int b0 = std::max(0, static_cast<int>((bearing - width + half) / o.shadow_bin_rad));
-          const int b1 =
-              std::min(bins - 1, static_cast<int>((bearing + width + half) / o.shadow_bin_rad));
+          const int b0 = bin_of(bearing - width), b1 = bin_of(bearing + width);
           for (int b = b0; b <= b1; ++b) {
             auto& seen = seen_m[static_cast<std::size_t>(b)];
             seen = std::min(seen, r + o.shadow_margin_m);
@@ -119,10 +120,8 @@ Coverage::Coverage(const std::vector<Pose2>& poses, const std::vector<Point2>& r
         if (hx * dx + hy * dy < std::sqrt(d2) * cos_half) continue;
         if (shadows) {
           const double bearing = std::atan2(hx * dy - hy * dx, hx * dx + hy * dy);
-          const int b =
-              std::clamp(static_cast<int>((bearing + half) / o.shadow_bin_rad), 0, bins - 1);
-          if (d2 > seen_m[static_cast<std::size_t>(b)] * seen_m[static_cast<std::size_t>(b)])
-            continue;
+          const double seen = seen_m[static_cast<std::size_t>(bin_of(bearing))];
+          if (d2 > seen * seen) continue;
         }
         cell = 1;
       }
