@@ -1199,9 +1199,12 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   // placed; with the check off it is.
   const auto run = [](double max_map_miss_fraction, bool contradict,
                       double own_heading_rad = msgs::kUnknownHeading,
-                      double mate_heading_rad = msgs::kUnknownHeading) {
+                      double mate_heading_rad = msgs::kUnknownHeading, bool wall = false,
+                      double shadow_margin_m =
+                          OptimizerStageOptions{}.map_coverage.shadow_margin_m) {
     OptimizerStageOptions o = OtherRulesOptions();
     o.max_map_miss_fraction = max_map_miss_fraction;
+    o.map_coverage.shadow_margin_m = shadow_margin_m;
     auto stage = std::make_unique<OptimizerStage>(o);
     // Objects in the own map frame, in front of the own keyframes (x 0..14, facing +x), each
     // keyframe returning a point on each of them; the teammate's map holds the same ones in
@@ -1215,6 +1218,9 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
       kf.time_s = k;
       kf.T_odom_body = {2.0 * k, 0.0, 0.0};
       for (const auto& c : shared) kf.points_body.push_back({c.x_m - 2.0 * k, c.y_m});
+      if (wall) {  // a wall across x = 23 m, between the shared objects and the extra ones
+        for (double y = -8.0; y <= 8.0; y += 0.5) kf.points_body.push_back({23.0 - 2.0 * k, y});
+      }
       stage->OnKeyframe(kf);
       traj.keyframes.push_back({k, double(k), kf.T_odom_body});
     }
@@ -1278,6 +1284,22 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   EXPECT_EQ(off->estimate().map_checks.at(1).support.expected, 0);
   EXPECT_FALSE(off->estimate().map_checks.at(1).contradicted);
   EXPECT_TRUE(std::isnan(off->estimate().map_checks.at(1).heading_gap_rad));
+
+  // Behind a wall the own sonar hit, the water is not seen: the three extra objects there
+  // are not expected (the default shadows), and the teammate is placed. Without shadows they
+  // are expected on the empty water, and it is not.
+  ASSERT_GT(OptimizerStageOptions{}.map_coverage.shadow_margin_m, 0.0);
+  const auto walled = run(0.1, true, msgs::kUnknownHeading, msgs::kUnknownHeading, true);
+  EXPECT_EQ(walled->estimate().trajectories.count(1), 1u);
+  ASSERT_EQ(walled->estimate().map_checks.count(1), 1u);
+  EXPECT_FALSE(walled->estimate().map_checks.at(1).contradicted);
+  EXPECT_EQ(walled->estimate().map_checks.at(1).support.expected, 4);
+  EXPECT_EQ(walled->estimate().map_checks.at(1).support.met, 4);
+  const auto unshadowed = run(0.1, true, msgs::kUnknownHeading, msgs::kUnknownHeading, true, 0.0);
+  EXPECT_EQ(unshadowed->estimate().trajectories.count(1), 0u);
+  ASSERT_EQ(unshadowed->estimate().map_checks.count(1), 1u);
+  EXPECT_TRUE(unshadowed->estimate().map_checks.at(1).contradicted);
+  EXPECT_EQ(unshadowed->estimate().map_checks.at(1).support.expected, 7);
 }
 
 // The two-step PGO's warm start (OptimizerStageOptions::warm_start): the same estimates as
