@@ -1196,7 +1196,8 @@ TEST(OptimizerStage, ObjectMapsThatContradictThePlacementKeepItOut) {
   // Five independent true loops place robot 1 (as above) while the teammate's objects lie on
   // own sonar returns under them. When the teammate's map holds three more objects where the
   // own sonar looked and saw nothing (a structure turned onto open water), the teammate is not
-  // placed; with the check off it is.
+  // placed; with the check off it is. Behind a wall of own returns the same three are in
+  // its shadow, not expected.
   const auto run = [](double max_map_miss_fraction, bool contradict,
                       double own_heading_rad = msgs::kUnknownHeading,
                       double mate_heading_rad = msgs::kUnknownHeading, bool wall = false,
