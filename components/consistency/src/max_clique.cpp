@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <deque>
 #include <numeric>
 
 namespace draco::consistency {
@@ -32,7 +33,8 @@ int Count(const Bits& b) {
 }
 
 // Branch and bound on a compact local graph (vertices renumbered by decreasing degree so the
-// greedy colouring gives tight bounds).
+// greedy colouring gives tight bounds). Each depth has its own buffers: no allocation per
+// node once the search has been as deep.
 class Solver {
  public:
   Solver(std::vector<Bits> adjacency, int best_size, Clock::time_point deadline, bool budgeted,
@@ -45,54 +47,79 @@ class Solver {
         max_nodes_(max_nodes) {}
 
   void Run() {
-    Bits all(static_cast<std::size_t>(words_), 0);
-    for (int v = 0; v < static_cast<int>(adj_.size()); ++v) Set(all, v);
-    if (Any(all)) Expand(all);
+    Level& root = LevelAt(0);
+    for (int v = 0; v < static_cast<int>(adj_.size()); ++v) Set(root.p, v);
+    if (Any(root.p)) Expand(0);
   }
   const std::vector<int>& best() const { return best_; }
   bool aborted() const { return aborted_; }
   std::int64_t nodes() const { return nodes_; }
 
  private:
-  void Expand(Bits p) {
+  struct Level {
+    Bits p, q, u;  // the candidates; the colouring's scratch sets
+    std::vector<int> order, colour;
+  };
+
+  Level& LevelAt(std::size_t depth) {
+    while (levels_.size() <= depth) {
+      Level l;
+      l.p.assign(static_cast<std::size_t>(words_), 0);
+      l.q = l.u = l.p;
+      levels_.push_back(std::move(l));
+    }
+    return levels_[depth];
+  }
+
+  // Expands levels_[depth].p (with current_ the clique so far).
+  void Expand(std::size_t depth) {
     ++nodes_;
     if (max_nodes_ > 0 && nodes_ > max_nodes_) aborted_ = true;
     if (budgeted_ && (nodes_ & 255) == 0 && Clock::now() > deadline_) aborted_ = true;
     if (aborted_) return;
+    Level& level = levels_[depth];
+    Level& child = LevelAt(depth + 1);
+    Bits& p = level.p;
     // Greedy sequential colouring of P: vertices in colour order with their colour.
-    std::vector<int> order;
-    std::vector<int> colour;
-    Bits q = p;
+    level.order.clear();
+    level.colour.clear();
+    Bits& q = level.q;
+    Bits& u = level.u;
+    q = p;
     int k = 0;
     while (Any(q)) {
       ++k;
-      Bits u = q;
+      u = q;
       for (int v = Lowest(u); v >= 0; v = Lowest(u)) {
         Clear(u, v);
         Clear(q, v);
         for (int w = 0; w < words_; ++w) u[static_cast<std::size_t>(w)] &= ~adj_[v][w];
-        order.push_back(v);
-        colour.push_back(k);
+        level.order.push_back(v);
+        level.colour.push_back(k);
       }
     }
-    for (int i = static_cast<int>(order.size()) - 1; i >= 0; --i) {
+    for (int i = static_cast<int>(level.order.size()) - 1; i >= 0; --i) {
       const int size = static_cast<int>(current_.size());
-      if (size + colour[static_cast<std::size_t>(i)] <= best_size_) return;
-      const int v = order[static_cast<std::size_t>(i)];
-      current_.push_back(v);
-      Bits next(static_cast<std::size_t>(words_));
+      if (size + level.colour[static_cast<std::size_t>(i)] <= best_size_) return;
+      const int v = level.order[static_cast<std::size_t>(i)];
+      Bits& next = child.p;
+      int next_size = 0;
       for (int w = 0; w < words_; ++w) {
         next[static_cast<std::size_t>(w)] = p[static_cast<std::size_t>(w)] & adj_[v][w];
+        next_size += std::popcount(next[static_cast<std::size_t>(w)]);
       }
-      if (!Any(next)) {
-        if (size + 1 > best_size_) {
+      // Every clique through v within P has at most size + 1 + |next| vertices: when that does
+      // not beat the best, the branch would find nothing (its first bound test returns).
+      if (size + 1 + next_size > best_size_) {
+        current_.push_back(v);
+        if (next_size == 0) {
           best_size_ = size + 1;
           best_ = current_;
+        } else {
+          Expand(depth + 1);
         }
-      } else {
-        Expand(std::move(next));
+        current_.pop_back();
       }
-      current_.pop_back();
       Clear(p, v);
       if (aborted_) return;
     }
@@ -104,6 +131,7 @@ class Solver {
   Clock::time_point deadline_;
   bool budgeted_;
   std::int64_t max_nodes_;
+  std::deque<Level> levels_;  // references stay valid as it grows
   std::vector<int> current_;
   std::vector<int> best_;
   bool aborted_ = false;
