@@ -103,23 +103,19 @@ class Solver {
       if (size + level.colour[static_cast<std::size_t>(i)] <= best_size_) return;
       const int v = level.order[static_cast<std::size_t>(i)];
       Bits& next = child.p;
-      int next_size = 0;
       for (int w = 0; w < words_; ++w) {
         next[static_cast<std::size_t>(w)] = p[static_cast<std::size_t>(w)] & adj_[v][w];
-        next_size += std::popcount(next[static_cast<std::size_t>(w)]);
       }
-      // Every clique through v within P has at most size + 1 + |next| vertices: when that does
-      // not beat the best, the branch would find nothing (its first bound test returns).
-      if (size + 1 + next_size > best_size_) {
-        current_.push_back(v);
-        if (next_size == 0) {
+      current_.push_back(v);
+      if (!Any(next)) {
+        if (size + 1 > best_size_) {
           best_size_ = size + 1;
           best_ = current_;
-        } else {
-          Expand(depth + 1);
         }
-        current_.pop_back();
+      } else {
+        Expand(depth + 1);
       }
+      current_.pop_back();
       Clear(p, v);
       if (aborted_) return;
     }
