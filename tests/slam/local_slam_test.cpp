@@ -121,7 +121,7 @@ eval::Trajectory Estimates(const LocalSlam& slam, bool dead_reckoning) {
 
 // The mission through sequential scan matching and LocalSlam(options): loop counts and ATEs.
 struct MissionRun {
-  int accepted = 0, ambiguous = 0, chain_rejected = 0, icp_ambiguous = 0;
+  int accepted = 0, ambiguous = 0, chain_rejected = 0, icp_ambiguous = 0, capped = 0;
   double slam_ate_m = 0.0, dr_ate_m = 0.0;
 };
 MissionRun RunMission(const Mission& mission, const LocalSlamOptions& options) {
@@ -135,6 +135,7 @@ MissionRun RunMission(const Mission& mission, const LocalSlamOptions& options) {
     out.ambiguous += r.loops_ambiguous;
     out.chain_rejected += r.loops_chain_rejected;
     out.icp_ambiguous += r.loops_icp_ambiguous;
+    out.capped += r.pcm_search_capped ? 1 : 0;
   }
   out.dr_ate_m = eval::Ate(Estimates(slam, true), mission.truth).rmse_m;
   out.slam_ate_m = eval::Ate(Estimates(slam, false), mission.truth).rmse_m;
@@ -190,6 +191,27 @@ TEST(LocalSlam, LoopClosuresRemoveDrift) {
     ++n;
   }
   EXPECT_LT(sum_error_m / n, 0.2);
+}
+
+// The PCM clique search's node budget: on two laps of a rectangle the search is small and
+// never reaches the default budget; with a budget of one node every search that branches
+// stops, the greedy clique answers, and the loops it finds still remove the drift.
+TEST(LocalSlam, PcmSearchBudgetFallsBackToTheGreedyClique) {
+  std::mt19937 rng(3);
+  const World world = MakeWorld(rng);
+  const Mission mission = MakeMission(world, rng);
+  const MissionRun exact = RunMission(mission, LocalSlamOptions{});
+  LocalSlamOptions capped_options;
+  capped_options.pcm_max_clique_nodes = 1;
+  const MissionRun capped = RunMission(mission, capped_options);
+  std::printf("exact: %d loops, ATE %.2f m; one node: %d loops, %d keyframes capped, ATE %.2f m\n",
+              exact.accepted, exact.slam_ate_m, capped.accepted, capped.capped,
+              capped.slam_ate_m);
+  EXPECT_EQ(exact.capped, 0);
+  EXPECT_GT(exact.accepted, 3);
+  EXPECT_GT(capped.capped, 0);
+  EXPECT_GT(capped.accepted, 3);
+  EXPECT_LT(capped.slam_ate_m, 0.3 * capped.dr_ate_m);
 }
 
 // The correlative seed search's ambiguity: along one straight wall every shift along it scores

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <deque>
 #include <numeric>
+#include <utility>
 
 namespace draco::consistency {
 namespace {
@@ -169,12 +170,14 @@ std::vector<int> GreedyClique(const Graph& graph, const std::vector<int>& candid
     for (std::size_t w = 0; w < words; ++w) c += std::popcount(graph.Row(v)[w] & set[w]);
     return c;
   };
-  std::vector<int> starts = candidates;
-  std::sort(starts.begin(), starts.end(), [&](int a, int b) {
-    const int da = degree_in(a, cand);
-    const int db = degree_in(b, cand);
-    return da != db ? da > db : a < b;
-  });
+  // Starts by decreasing degree among the candidates (ties by index), each degree counted once.
+  std::vector<std::pair<int, int>> by_degree;  // (-degree, vertex)
+  by_degree.reserve(candidates.size());
+  for (const int v : candidates) by_degree.emplace_back(-degree_in(v, cand), v);
+  std::sort(by_degree.begin(), by_degree.end());
+  std::vector<int> starts;
+  starts.reserve(by_degree.size());
+  for (const auto& entry : by_degree) starts.push_back(entry.second);
   constexpr std::size_t kMaxStarts = 16;
   if (starts.size() > kMaxStarts) starts.resize(kMaxStarts);
   std::vector<int> best;

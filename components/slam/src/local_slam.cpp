@@ -387,8 +387,10 @@ struct LocalSlam::Impl {
           f.method = consistency::Method::kPcm;
           f.min_clique_size = o.pcm_min_clique_size;
           f.pairwise.chi2_threshold = o.pcm_chi2_threshold;
+          f.max_clique_nodes = o.pcm_max_clique_nodes;
           // No wall-clock budget: it would make replay depend on machine load. Intra-robot
-          // cliques are small (tens of loops).
+          // searches take under 100 nodes on the marina, the airplane and generated worlds;
+          // the node budget bounds a keyframe's latency on a robot that repeats one pattern.
           f.time_budget_ms = 0.0;
           return f;
         }()) {}
@@ -796,6 +798,7 @@ StepResult LocalSlam::AddKeyframe(const msgs::Keyframe& keyframe,
   m.icp_ambiguous_loops = 0;
   if (!proposed.empty()) {
     const consistency::Decision d = m.pcm.Add(proposed, m.chain);
+    result.pcm_search_capped = !d.exact;
     for (std::uint64_t id : d.newly_accepted) {
       LoopRecord& rec = m.loops[m.loop_by_id.at(id)];
       if (rec.accepted) continue;

@@ -63,6 +63,10 @@ class LocalSlamComponent final : public graph::Component {
                {.doc = "pairwise consistency threshold (3 dof)", .min = 0});
     spec.Param("pcm_min_clique_size", &o_.pcm_min_clique_size,
                {.doc = "consistent loops needed before any is accepted", .min = 1});
+    spec.Param("pcm_max_clique_nodes", &o_.pcm_max_clique_nodes,
+               {.doc = "branch-and-bound nodes of the PCM clique search per keyframe; at the "
+                       "budget a greedy clique answers",
+                .min = 1});
     spec.Param("keep_dead_reckoning_factor", &o_.keep_dead_reckoning_factor,
                {.doc = "dead-reckoning factor beside every scan-matching factor"});
     spec.Param("heading_prior_sigma_rad", &o_.heading_prior_sigma_rad,
@@ -233,6 +237,7 @@ class LocalSlamComponent final : public graph::Component {
         loops_ambiguous_ += r.loops_ambiguous;
         loops_chain_rejected_ += r.loops_chain_rejected;
         loops_icp_ambiguous_ += r.loops_icp_ambiguous;
+        pcm_searches_capped_ += r.pcm_search_capped ? 1 : 0;
         (r.full_solve ? full_solves_ : window_solves_) += 1;
         (r.full_solve ? full_solve_s_ : window_solve_s_) += r.solve_time_s;
         if (r.full_solve) full_solve_iterations_ += r.solve_iterations;
@@ -275,6 +280,9 @@ class LocalSlamComponent final : public graph::Component {
                           ? " loops kept with their other fits added to the covariance"
                           : " loop candidates dropped") +
               ": ICP from a shifted seed fits them elsewhere as well (loop_icp_ambiguity_ratio)");
+    count(pcm_searches_capped_,
+          " keyframes whose PCM clique search reached its budget; a greedy clique answered "
+          "(pcm_max_clique_nodes)");
     if (ctx.output_dir().empty()) return Status::Ok();
     eval::Trajectory est, dr;
     for (const auto& k : slam_.Trajectory()) {
@@ -364,6 +372,7 @@ class LocalSlamComponent final : public graph::Component {
   int loops_ambiguous_ = 0;
   int loops_chain_rejected_ = 0;
   int loops_icp_ambiguous_ = 0;
+  int pcm_searches_capped_ = 0;
   int full_solves_avoided_ = 0;
   int full_solves_ = 0, window_solves_ = 0;  // pose-graph solves, and their time
   int full_solve_iterations_ = 0;
