@@ -205,8 +205,7 @@ TEST(LocalSlam, PcmSearchBudgetFallsBackToTheGreedyClique) {
   capped_options.pcm_max_clique_nodes = 1;
   const MissionRun capped = RunMission(mission, capped_options);
   std::printf("exact: %d loops, ATE %.2f m; one node: %d loops, %d keyframes capped, ATE %.2f m\n",
-              exact.accepted, exact.slam_ate_m, capped.accepted, capped.capped,
-              capped.slam_ate_m);
+              exact.accepted, exact.slam_ate_m, capped.accepted, capped.capped, capped.slam_ate_m);
   EXPECT_EQ(exact.capped, 0);
   EXPECT_GT(exact.accepted, 3);
   EXPECT_GT(capped.capped, 0);
