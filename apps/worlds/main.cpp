@@ -95,6 +95,7 @@ struct WorldRow {
   int accepted = 0, accepted_true = 0, candidates_true = 0;
   double precision = NAN, recall = NAN;
   double team_ate_m = NAN, dr_ate_m = NAN, oracle_ate_m = NAN, local_ate_m = NAN;
+  int local_worse = 0;  // robots whose local SLAM ATE exceeds their dead reckoning's
   double first_right_s = NAN;  // median over pairs placed right
   double bits = 0.0;
   double bits_per_true_loop = NAN;
@@ -125,6 +126,7 @@ WorldRow Evaluate(const std::string& name, const std::string& run_dir,
     if (r.team_ate_m >= 0) team_ate.push_back(r.team_ate_m);
     if (r.dr_ate_m >= 0) dr_ate.push_back(r.dr_ate_m);
     if (r.local_ate_m >= 0) local.push_back(r.local_ate_m);
+    if (r.local_ate_m >= 0 && r.dr_ate_m >= 0 && r.local_ate_m > r.dr_ate_m) ++w.local_worse;
     if (i < pl.oracle_team_ate_m.size() && pl.oracle_team_ate_m[i] >= 0)
       oracle.push_back(pl.oracle_team_ate_m[i]);
     w.bits += r.bits_sent;
@@ -179,7 +181,7 @@ std::string WorldsCsv(const std::vector<WorldRow>& rows) {
   std::string s =
       "world,status,periodic,robots,pairs,right,wrong,none,wrong_ever,eligible,eligible_right,"
       "accepted,accepted_true,precision,recall,team_ate_m,oracle_ate_m,dr_ate_m,local_ate_m,"
-      "first_right_s,bits,bits_per_true_loop,wall_s\n";
+      "local_worse_than_dr,first_right_s,bits,bits_per_true_loop,wall_s\n";
   for (const auto& w : rows) {
     s += w.name + "," + w.status + "," + w.periodic + "," + std::to_string(w.robots) + "," +
          std::to_string(w.pairs) + "," + std::to_string(w.right) + "," + std::to_string(w.wrong) +
@@ -188,7 +190,8 @@ std::string WorldsCsv(const std::vector<WorldRow>& rows) {
          std::to_string(w.accepted) + "," + std::to_string(w.accepted_true) + "," +
          Fmt(w.precision, "%.4f") + "," + Fmt(w.recall, "%.4f") + "," + Fmt(w.team_ate_m, "%.3f") +
          "," + Fmt(w.oracle_ate_m, "%.3f") + "," + Fmt(w.dr_ate_m, "%.3f") + "," +
-         Fmt(w.local_ate_m, "%.3f") + "," + Fmt(w.first_right_s, "%.0f") + "," +
+         Fmt(w.local_ate_m, "%.3f") + "," + std::to_string(w.local_worse) + "," +
+         Fmt(w.first_right_s, "%.0f") + "," +
          Fmt(w.bits, "%.0f") + "," + Fmt(w.bits_per_true_loop, "%.0f") + "," +
          Fmt(w.wall_s, "%.0f") + "\n";
   }
@@ -199,7 +202,8 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
   std::string s =
       "| world | periodic | robots | pairs right / wrong / none | wrong at some time | "
       "eligible right | loops accepted (true) | precision | recall | team / oracle / DR ATE m | "
-      "first right s | bits per true loop |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+      "local SLAM worse than DR | first right s | bits per true loop |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   WorldRow t;
   t.name = "**all**";
   double min_precision = NAN;
@@ -211,7 +215,8 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
          std::to_string(w.eligible) + " | " + std::to_string(w.accepted) + " (" +
          std::to_string(w.accepted_true) + ") | " + Fmt(w.precision, "%.3f") + " | " +
          Fmt(w.recall, "%.2f") + " | " + Fmt(w.team_ate_m) + " / " + Fmt(w.oracle_ate_m) + " / " +
-         Fmt(w.dr_ate_m) + " | " + Fmt(w.first_right_s, "%.0f") + " | " +
+         Fmt(w.dr_ate_m) + " | " + std::to_string(w.local_worse) + " | " +
+         Fmt(w.first_right_s, "%.0f") + " | " +
          Fmt(w.bits_per_true_loop, "%.0f") + " |\n";
     t.pairs += w.pairs;
     t.right += w.right;
@@ -223,6 +228,8 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
     t.accepted += w.accepted;
     t.accepted_true += w.accepted_true;
     t.candidates_true += w.candidates_true;
+    t.robots += w.robots;
+    t.local_worse += w.local_worse;
     if (!std::isnan(w.precision))
       min_precision =
           std::isnan(min_precision) ? w.precision : std::min(min_precision, w.precision);
@@ -235,15 +242,17 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
        std::to_string(t.eligible_right) + " / " + std::to_string(t.eligible) + " | " +
        std::to_string(t.accepted) + " (" + std::to_string(t.accepted_true) + ") | " +
        Fmt(precision, "%.3f") + " (lowest " + Fmt(min_precision, "%.3f") + ") | " +
-       Fmt(recall, "%.2f") + " | | | |\n";
-  char summary[400];
+       Fmt(recall, "%.2f") + " | | " + std::to_string(t.local_worse) + " of " +
+       std::to_string(t.robots) + " | | |\n";
+  char summary[600];
   std::snprintf(
       summary, sizeof summary,
       "\nOrdered pairs: %d; placed right %d, placed wrong at the end %d (%.1f %%), "
       "placed wrong at some time %d, not placed %d. Pairs that share >= 5 objects and whose "
-      "paths overlap >= 30 %%: %d of %d placed right.\n",
+      "paths overlap >= 30 %%: %d of %d placed right. Robots whose local SLAM ends worse than "
+      "their dead reckoning (ATE): %d of %d.\n",
       t.pairs, t.right, t.wrong, t.pairs ? 100.0 * t.wrong / t.pairs : 0.0, t.wrong_ever, t.none,
-      t.eligible_right, t.eligible);
+      t.eligible_right, t.eligible, t.local_worse, t.robots);
   return s + summary;
 }
 
