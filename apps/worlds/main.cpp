@@ -95,7 +95,7 @@ struct WorldRow {
   int accepted = 0, accepted_true = 0, candidates_true = 0;
   double precision = NAN, recall = NAN;
   double team_ate_m = NAN, dr_ate_m = NAN, oracle_ate_m = NAN, local_ate_m = NAN;
-  int local_worse = 0;  // robots whose local SLAM ATE exceeds their dead reckoning's
+  int local_worse = 0;         // robots whose local SLAM ATE exceeds their dead reckoning's
   double first_right_s = NAN;  // median over pairs placed right
   double bits = 0.0;
   double bits_per_true_loop = NAN;
@@ -191,9 +191,8 @@ std::string WorldsCsv(const std::vector<WorldRow>& rows) {
          Fmt(w.precision, "%.4f") + "," + Fmt(w.recall, "%.4f") + "," + Fmt(w.team_ate_m, "%.3f") +
          "," + Fmt(w.oracle_ate_m, "%.3f") + "," + Fmt(w.dr_ate_m, "%.3f") + "," +
          Fmt(w.local_ate_m, "%.3f") + "," + std::to_string(w.local_worse) + "," +
-         Fmt(w.first_right_s, "%.0f") + "," +
-         Fmt(w.bits, "%.0f") + "," + Fmt(w.bits_per_true_loop, "%.0f") + "," +
-         Fmt(w.wall_s, "%.0f") + "\n";
+         Fmt(w.first_right_s, "%.0f") + "," + Fmt(w.bits, "%.0f") + "," +
+         Fmt(w.bits_per_true_loop, "%.0f") + "," + Fmt(w.wall_s, "%.0f") + "\n";
   }
   return s;
 }
@@ -216,8 +215,7 @@ std::string WorldsMarkdown(const std::vector<WorldRow>& rows) {
          std::to_string(w.accepted_true) + ") | " + Fmt(w.precision, "%.3f") + " | " +
          Fmt(w.recall, "%.2f") + " | " + Fmt(w.team_ate_m) + " / " + Fmt(w.oracle_ate_m) + " / " +
          Fmt(w.dr_ate_m) + " | " + std::to_string(w.local_worse) + " | " +
-         Fmt(w.first_right_s, "%.0f") + " | " +
-         Fmt(w.bits_per_true_loop, "%.0f") + " |\n";
+         Fmt(w.first_right_s, "%.0f") + " | " + Fmt(w.bits_per_true_loop, "%.0f") + " |\n";
     t.pairs += w.pairs;
     t.right += w.right;
     t.wrong += w.wrong;
