@@ -388,9 +388,8 @@ struct LocalSlam::Impl {
           f.min_clique_size = o.pcm_min_clique_size;
           f.pairwise.chi2_threshold = o.pcm_chi2_threshold;
           f.max_clique_nodes = o.pcm_max_clique_nodes;
-          // No wall-clock budget: it would make replay depend on machine load. Intra-robot
-          // searches take under 100 nodes on the marina, the airplane and generated worlds;
-          // the node budget bounds a keyframe's latency on a robot that repeats one pattern.
+          // No wall-clock budget: it would make replay depend on machine load; the node
+          // budget (pcm_max_clique_nodes) bounds a keyframe's latency instead.
           f.time_budget_ms = 0.0;
           return f;
         }()) {}

@@ -95,12 +95,11 @@ struct LocalSlamOptions {
   double loop_min_sigma_yaw_rad = 0.01;
   double pcm_chi2_threshold = 11.34;
   int pcm_min_clique_size = 2;
-  // Branch-and-bound nodes the PCM clique search may take per keyframe (deterministic). On
-  // the marina, the airplane and generated worlds a search takes under 100; a robot that
-  // repeats one pattern makes a dense consistency graph (hundreds of loops, each consistent
-  // with most others) where proving that no larger clique holds a new loop took up to 1.2
-  // million nodes, 12 s. At the budget the greedy clique answers: a larger clique than the
-  // current one replaces it, and a loop left out stays a candidate for later searches.
+  // Branch-and-bound nodes the PCM clique search may take per keyframe (deterministic). A
+  // robot that repeats one pattern makes a dense consistency graph (hundreds of loops, each
+  // consistent with most others) where proving that no larger clique holds a new loop takes
+  // millions of nodes (docs/local-slam.md, step 4). At the budget the greedy clique answers:
+  // a larger clique than the current one replaces it, and a loop left out stays a candidate.
   int pcm_max_clique_nodes = 10'000;
   double loop_cauchy_scale = 1.0;  // robust loss on loop factors, in sigmas
   // Loop covariance from the registration residual (the reference: 20 * mean squared residual
